@@ -1,0 +1,203 @@
+"""The data model: VectorImage and Channel.
+
+.. warning:: COORDINATES, stated once for the whole package
+
+   x runs to the right, y runs down, and the origin is the top-left corner of the image.
+   Pixel (i, j) (row i, column j) is the unit square [j, j+1) x [i, i+1); its sample sits
+   at its centre (j + 0.5, i + 0.5). All geometry (control points, cap positions) is in
+   these source-pixel units; the image covers [0, width] x [0, height].
+
+Chains
+    A chain of n cubic Bezier segments is a (1 + 3n, 2) float64 array
+    ``P0, C0a, C0b, P1, C1a, C1b, P2, ..., Pn``. Every contour is closed: Pn == P0.
+
+Orientation
+    Every contour is oriented so that the side whose values are >= its level lies to the
+    LEFT of the direction of travel as seen on screen (y down). Hence the winding numbers of
+    all contours of a channel add up, at any point inside the image, to the point's band:
+    the number of the channel's levels that its value is >= ("a sample equal to a level
+    counts as above it").
+
+Bands
+    Band b of a channel holds values in [levels[b-1], levels[b]) with levels[-1] = -inf and
+    levels[L] = +inf. Band 0 lies below every level; band L above every level.
+
+Hierarchy (paper §4)
+    ``parent[k]`` is the index of the innermost contour whose footprint contains contour k,
+    or -1 for the image frame. A region is the footprint of a contour minus the footprints
+    of its children (the root region is the frame minus its children).
+
+Caps
+    A region bounded by contours of one level only (a peak or a pit, or any region a single
+    level closes against the border) cannot be interpolated between two levels; the encoder
+    annotates it with its extremum: ``cap_value`` at ``cap_xy`` in band ``cap_band``.
+    ``cap_contour`` is the region's outer contour (-1 for the root region).
+
+Storage
+    A channel keeps its contours in flat arrays, not objects, so that a photograph's tens of
+    thousands of contours cost no Python objects: contour k's chain is
+    ``points[offsets[k]:offsets[k+1]]`` and its segments' border flags are
+    ``border[(offsets[k] - k) // 3 : (offsets[k+1] - k - 1) // 3]``
+    (use :meth:`Channel.chain` and :meth:`Channel.border_flags`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+CHANNEL_NAMES = ("Y", "U", "V", "A")
+
+
+@dataclass(frozen=True, eq=False)
+class Channel:
+    """The contours of one colour channel.
+
+    Attributes
+    ----------
+    name : str
+        "Y", "U", "V" or "A".
+    levels : (L,) float64 ndarray
+        Strictly increasing level values on the 0..255 scale.
+    contour_level : (C,) int32 ndarray
+        Index into ``levels`` of each contour.
+    offsets : (C + 1,) int64 ndarray
+        Contour k's chain is ``points[offsets[k]:offsets[k+1]]``.
+    points : (P, 2) float64 ndarray
+        All chains, concatenated; each chain has 1 + 3n points.
+    border : (S,) bool ndarray
+        Per segment (all contours' segments concatenated): True where the segment runs along
+        the image border and is therefore not an isoline (never a distance source).
+    parent : (C,) int32 ndarray
+        Enclosing contour, -1 for the image frame.
+    cap_band, cap_contour : (K,) int32 ndarray
+    cap_xy : (K, 2) float64 ndarray
+    cap_value : (K,) float64 ndarray
+        Cap annotations (see the module docstring).
+    """
+
+    name: str
+    levels: np.ndarray
+    contour_level: np.ndarray
+    offsets: np.ndarray
+    points: np.ndarray
+    border: np.ndarray
+    parent: np.ndarray
+    cap_band: np.ndarray
+    cap_contour: np.ndarray
+    cap_xy: np.ndarray
+    cap_value: np.ndarray
+
+    @property
+    def n_contours(self) -> int:
+        return int(self.contour_level.shape[0])
+
+    @property
+    def n_segments(self) -> int:
+        return int(self.border.shape[0])
+
+    def chain(self, k: int) -> np.ndarray:
+        """(1 + 3n, 2) control points of contour k."""
+        return self.points[self.offsets[k] : self.offsets[k + 1]]
+
+    def segment_offsets(self) -> np.ndarray:
+        """(C + 1,) int64: contour k's segments are ``border[so[k]:so[k+1]]``."""
+        return (self.offsets - np.arange(self.offsets.shape[0])) // 3
+
+    def border_flags(self, k: int) -> np.ndarray:
+        so = self.segment_offsets()
+        return self.border[so[k] : so[k + 1]]
+
+    def chains(self):
+        """Iterate over (level_index, chain, border_flags) for every contour."""
+        so = self.segment_offsets()
+        for k in range(self.n_contours):
+            yield (
+                int(self.contour_level[k]),
+                self.points[self.offsets[k] : self.offsets[k + 1]],
+                self.border[so[k] : so[k + 1]],
+            )
+
+    def with_points(self, points: np.ndarray) -> "Channel":
+        """The same channel with moved control points (same layout)."""
+        return replace(self, points=np.ascontiguousarray(points, dtype=np.float64))
+
+    def equals(self, other: "Channel") -> bool:
+        """Exact equality of every field (used by round-trip tests)."""
+        if self.name != other.name:
+            return False
+        for f in (
+            "levels", "contour_level", "offsets", "points", "border", "parent",
+            "cap_band", "cap_contour", "cap_xy", "cap_value",
+        ):
+            a, b = getattr(self, f), getattr(other, f)
+            if a.shape != b.shape or a.dtype != b.dtype or not np.array_equal(a, b):
+                return False
+        return True
+
+    @staticmethod
+    def empty(name: str, levels) -> "Channel":
+        return Channel(
+            name=name,
+            levels=np.asarray(levels, dtype=np.float64),
+            contour_level=np.zeros(0, np.int32),
+            offsets=np.zeros(1, np.int64),
+            points=np.zeros((0, 2), np.float64),
+            border=np.zeros(0, bool),
+            parent=np.zeros(0, np.int32),
+            cap_band=np.zeros(0, np.int32),
+            cap_contour=np.zeros(0, np.int32),
+            cap_xy=np.zeros((0, 2), np.float64),
+            cap_value=np.zeros(0, np.float64),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class VectorImage:
+    """A vectorised photograph: contours per channel on a width x height canvas.
+
+    ``colour`` is "yuv" (channels Y, U, V [, A]) or "grey" (Y [, A]). ``source_depth`` is the
+    bit depth of the raster it was encoded from (8 or 16), kept for information only:
+    renders choose their own depth.
+    """
+
+    width: int
+    height: int
+    colour: str
+    channels: tuple
+    source_depth: int = 8
+    meta: dict = field(default_factory=dict)
+
+    def channel(self, name: str) -> Channel:
+        for ch in self.channels:
+            if ch.name == name:
+                return ch
+        raise KeyError(name)
+
+    @property
+    def has_alpha(self) -> bool:
+        return any(ch.name == "A" for ch in self.channels)
+
+    def equals(self, other: "VectorImage") -> bool:
+        return (
+            self.width == other.width
+            and self.height == other.height
+            and self.colour == other.colour
+            and self.source_depth == other.source_depth
+            and len(self.channels) == len(other.channels)
+            and all(a.equals(b) for a, b in zip(self.channels, other.channels))
+        )
+
+    # The operations live in their own modules; these are thin doors to them.
+    def render(self, width=None, height=None, scale=None, **options):
+        """Render to a raster; see :func:`isophote.render.render` for the options."""
+        from .render import render
+
+        return render(self, width=width, height=height, scale=scale, **options)
+
+    def save(self, path) -> None:
+        """Write an .isoph file (atomically)."""
+        from .format.isoph import save
+
+        save(self, path)
