@@ -18,7 +18,7 @@ __version__ = "0.1.0"
 
 def encode(image, **options) -> VectorImage:
     """Encode an (H, W), (H, W, 1..4) array of samples on 0..255 into a VectorImage."""
-    from .encode import encode as _encode
+    from .encoder import encode as _encode
 
     return _encode(image, **options)
 

@@ -23,7 +23,7 @@ class EncodeOptions:
 
     preset : name in PRESETS; explicit steps or levels override its values.
     y_step, uv_step, alpha_step : level spacing in grey levels; levels sit at 127.5 + k*step
-        inside [7.5, 247.5] (between representable 8-bit values, see encode.levels).
+        inside [7.5, 247.5] (between representable 8-bit values, see encoder.levels).
     levels_y, levels_u, levels_v : explicit level lists (override the steps).
     noise : the sample error epsilon in grey levels (§3.1). None = the quantisation error
         of the input, 0.5 for 8-bit (0.5/257 on the 0..255 scale for 16-bit).
@@ -32,7 +32,7 @@ class EncodeOptions:
     min_tolerance, max_tolerance : clamp of the ribbon half-width in source pixels.
     carrato_p : the p of the Carrato 2x formula (§3.2).
     carrato_scale : intensity unit (in grey levels) in which the Carrato differences are
-        measured; p = 0.5 acts on differences in this unit (see encode.mapping).
+        measured; p = 0.5 acts on differences in this unit (see encoder.mapping).
     """
 
     preset: str = "paper"

@@ -1,0 +1,147 @@
+"""The decoder: a VectorImage becomes a raster (paper §4, DESIGN.md decoder steps 2-6).
+
+    render(vi)  ->  viewport (size, scale, crop)  ->  per channel:
+        flatten chains  ->  distance fields on the node grid (§4.1-4.2)
+        ->  per strip of output rows: rasterise bands at the target samples
+        ->  fill (double diffusion or flat)  ->  box filter  ->  colour (YUV -> RGB), quantise
+
+The fill is a fixed function of the vector image: distances live on a node grid over the
+whole image (r nodes per source pixel, chosen from the image size alone), and each target
+sample reads the nodes around it. A crop is therefore exactly the same region of the full
+render, and tiles join seamlessly.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..colour import yuv_to_rgb
+from ..errors import LimitError
+from ..options import RenderOptions
+from .distance import NodeField, node_field
+from .fill import fill_strip
+from .flatten import flatten, segments
+
+STRIP_ROWS = 128  # output rows per strip: bounds memory at large sizes
+
+
+@dataclass(frozen=True)
+class Viewport:
+    """Output size and where its samples sit in the source.
+
+    Global target sample (I, J) (s x s per output pixel) sits at source position
+    ((J + 0.5) / kx, (I + 0.5) / ky); the output starts at global sample (row0, col0), or,
+    when the crop origin is not on that lattice, the lattice is shifted by (offx, offy).
+    """
+
+    out_w: int
+    out_h: int
+    s: int
+    kx: float
+    ky: float
+    row0: int
+    col0: int
+    offx: float
+    offy: float
+
+
+def viewport(vi, opts: RenderOptions) -> Viewport:
+    cx, cy, cw, ch = opts.crop if opts.crop is not None else (0.0, 0.0, float(vi.width), float(vi.height))
+    cx, cy, cw, ch = float(cx), float(cy), float(cw), float(ch)
+    if cx < 0 or cy < 0 or cx + cw > vi.width + 1e-9 or cy + ch > vi.height + 1e-9:
+        from ..errors import OptionError
+
+        raise OptionError(f"crop {cx:g},{cy:g},{cw:g},{ch:g} leaves the {vi.width}x{vi.height} image")
+    s = int(opts.supersample)
+    if opts.scale is not None:
+        out_w, out_h = max(1, round(cw * opts.scale)), max(1, round(ch * opts.scale))
+        kx = ky = s * float(opts.scale)
+    elif opts.width is not None or opts.height is not None:
+        if opts.width is not None and opts.height is not None:
+            out_w, out_h = int(opts.width), int(opts.height)
+        elif opts.width is not None:
+            out_w = int(opts.width)
+            out_h = max(1, round(ch * out_w / cw))
+        else:
+            out_h = int(opts.height)
+            out_w = max(1, round(cw * out_h / ch))
+        kx, ky = s * out_w / cw, s * out_h / ch
+    else:
+        out_w, out_h = max(1, round(cw)), max(1, round(ch))
+        kx, ky = s * out_w / cw, s * out_h / ch
+    if out_w * out_h > opts.max_pixels:
+        raise LimitError(
+            f"output {out_w}x{out_h} exceeds {opts.max_pixels} pixels; raise max_pixels (--max-pixels) to allow it"
+        )
+    ox, oy = cx * kx, cy * ky
+    col0, offx = (int(round(ox)), 0.0) if abs(ox - round(ox)) < 1e-9 else (0, ox)
+    row0, offy = (int(round(oy)), 0.0) if abs(oy - round(oy)) < 1e-9 else (0, oy)
+    return Viewport(out_w, out_h, s, kx, ky, row0, col0, offx, offy)
+
+
+def render_float(vi, **options) -> np.ndarray:
+    """Render to float64 samples on 0..255, (H, W, C) with the image's channels in RGB(A) or
+    grey(+alpha) order, unquantised. Options: the fields of RenderOptions."""
+    opts = RenderOptions(**options)
+    opts.validate()
+    vp = viewport(vi, opts)
+    flat = opts.fill == "flat"
+    planes = {}
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        fields = list(pool.map(lambda ch: _channel_field(vi, ch, vp, opts), vi.channels))
+        for ch, nf in zip(vi.channels, fields):
+            strips = range(0, vp.out_h, STRIP_ROWS)
+            parts = list(pool.map(lambda r: fill_strip(nf, vp, r, min(r + STRIP_ROWS, vp.out_h), flat), strips))
+            planes[ch.name] = np.vstack(parts) if parts else np.zeros((0, vp.out_w))
+    if vi.colour == "yuv":
+        yuv = np.stack([planes["Y"], planes["U"], planes["V"]], axis=-1).astype(np.float64)
+        out = [yuv_to_rgb(yuv)]
+    else:
+        out = [planes["Y"][..., None].astype(np.float64)]
+    if "A" in planes:
+        out.append(planes["A"][..., None].astype(np.float64))
+    return np.clip(np.concatenate(out, axis=-1), 0.0, 255.0)
+
+
+def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
+    """Render a VectorImage.
+
+    Parameters
+    ----------
+    width, height, scale, crop, fill, distance, supersample, depth, max_pixels :
+        see :class:`isophote.options.RenderOptions`.
+
+    Returns
+    -------
+    (H, W) for grey, else (H, W, C) ndarray: uint8 for depth 8, uint16 for depth 16.
+    """
+    depth = options.get("depth", 8)
+    a = render_float(vi, width=width, height=height, scale=scale, **options)
+    out = quantise(a, depth)
+    return out[..., 0] if out.shape[2] == 1 else out
+
+
+def quantise(a: np.ndarray, depth: int) -> np.ndarray:
+    if depth == 16:
+        return np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
+    return np.clip(np.rint(a), 0, 255).astype(np.uint8)
+
+
+def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
+    segs, border = segments(ch)
+    # flatten finely enough for both the node grid and the target samples
+    r = node_resolution(vi.width, vi.height)
+    tol = 0.05 / max(r, vp.kx, vp.ky)
+    edges = flatten(segs, border, tol)
+    return node_field(vi, ch, edges, r, opts.distance)
+
+
+NODE_BUDGET = 4_500_000
+
+
+def node_resolution(width: int, height: int) -> int:
+    """Nodes per source pixel of the distance grid: 4 up to ~0.28 MP, fewer above (memory)."""
+    return int(max(1, min(4, np.floor(np.sqrt(NODE_BUDGET / (width * height))))))

@@ -1,0 +1,346 @@
+"""Distance fields of the double-diffusion fill (kernels + NumPy twin).
+
+Node grid: node (i, j) sits at (j + 0.5, i + 0.5) in node units. For every node and each
+side (0 = lower, 1 = upper) the fields hold the nearest source: its position (sx, sy), the
+distance d to it (path length in the chosen metric) and its value v (the level, or a cap's
+extremum). d = inf where no source was found.
+
+Sources are the exact isoline crossings between neighbouring nodes (from the rasteriser).
+Propagation only passes between nodes of the same band (the paper's dist within R - S), in
+alternating forward and backward raster sweeps until nothing changes.
+
+Caps: a region (8-connected nodes of one band) with sources on one side only is a peak or a
+pit. Its missing side is modelled as a surface at the cap's extremum value lying at the
+region's largest distance from its contour, d_max: C = L + (v_cap - L) * d / d_max. A ridge
+thus keeps its value along its whole crest, and a peak at the border rises to the border.
+A region with no source at all takes the cap value everywhere.
+
+Metrics (MODE_*):
+  euclidean  the straight-line distance to the nearest source reached through the band
+             (vector propagation, like dead reckoning);
+  manhattan  the 4-neighbour path length (the paper's §4.2);
+  geodesic   the path length with 5x5 chamfer steps (1, sqrt 2, sqrt 5).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
+SX, SY, D, V = 0, 1, 2, 3
+
+_OFFS = {
+    MODE_EUCLIDEAN: [(-1, -1), (-1, 0), (-1, 1), (0, -1)],
+    MODE_MANHATTAN: [(-1, 0), (0, -1)],
+    MODE_GEODESIC: [(-1, -1), (-1, 0), (-1, 1), (0, -1), (-1, -2), (-1, 2), (-2, -1), (-2, 1)],
+}
+
+
+def offsets(mode: int) -> np.ndarray:
+    """Causal neighbour offsets (di, dj) of the forward sweep; the backward sweep negates them."""
+    return np.asarray(_OFFS[mode], np.int64)
+
+
+@njit(cache=True, nogil=True)
+def metric(dx, dy, mode):
+    if mode == 1:
+        return abs(dx) + abs(dy)
+    return np.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True, nogil=True)
+def _offer(F, s, i, j, sx, sy, d, v):
+    if d < F[s, D, i, j]:
+        F[s, SX, i, j] = sx
+        F[s, SY, i, j] = sy
+        F[s, D, i, j] = d
+        F[s, V, i, j] = v
+        return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _offer_crossing(F, band, levels, i, j, sx, sy, d, going_up):
+    b = band[i, j]
+    nl = levels.shape[0]
+    if b < 0 or b > nl:
+        return
+    if going_up:
+        if b < nl:
+            _offer(F, 1, i, j, sx, sy, d, levels[b])
+    else:
+        if b >= 1:
+            _offer(F, 0, i, j, sx, sy, d, levels[b - 1])
+
+
+@njit(cache=True, nogil=True)
+def seed(band, hfx, hfd, hlx, hld, vfx, vfd, vlx, vld, levels):
+    """Initial fields from the crossings (h*: per row, by gap; v*: per column, by gap)."""
+    nr, nc = band.shape
+    F = np.empty((2, 4, nr, nc), np.float64)
+    F[:, D] = np.inf
+    F[:, SX] = 0.0
+    F[:, SY] = 0.0
+    F[:, V] = 0.0
+    for i in range(nr):
+        yc = i + 0.5
+        for j in range(nc):
+            xc = j + 0.5
+            if hfd[i, j + 1] != 0:  # nearest crossing on the right, moving right
+                x = hfx[i, j + 1]
+                _offer_crossing(F, band, levels, i, j, x, yc, x - xc, hfd[i, j + 1] > 0)
+            if hld[i, j] != 0:  # nearest crossing on the left, moving left
+                x = hlx[i, j]
+                _offer_crossing(F, band, levels, i, j, x, yc, xc - x, hld[i, j] < 0)
+            # the column crossings come from the transposed (mirrored) geometry, whose winding
+            # is the negated band: moving down, the band rises where their winding falls
+            if vfd[j, i + 1] != 0:  # below, moving down
+                y = vfx[j, i + 1]
+                _offer_crossing(F, band, levels, i, j, xc, y, y - yc, vfd[j, i + 1] < 0)
+            if vld[j, i] != 0:  # above, moving up
+                y = vlx[j, i]
+                _offer_crossing(F, band, levels, i, j, xc, y, yc - y, vld[j, i] > 0)
+    return F
+
+
+@njit(cache=True, nogil=True)
+def _sweep(F, band, offs, mode, forward):
+    nr, nc = band.shape
+    changed = False
+    no = offs.shape[0]
+    for a in range(nr):
+        i = a if forward else nr - 1 - a
+        for bj in range(nc):
+            j = bj if forward else nc - 1 - bj
+            b = band[i, j]
+            for o in range(no):
+                di = offs[o, 0] if forward else -offs[o, 0]
+                dj = offs[o, 1] if forward else -offs[o, 1]
+                ii = i + di
+                jj = j + dj
+                if ii < 0 or ii >= nr or jj < 0 or jj >= nc or band[ii, jj] != b:
+                    continue
+                for s in range(2):
+                    dn = F[s, D, ii, jj]
+                    if dn == np.inf:
+                        continue
+                    sx = F[s, SX, ii, jj]
+                    sy = F[s, SY, ii, jj]
+                    if mode == 0:
+                        cand = metric(j + 0.5 - sx, i + 0.5 - sy, 0)
+                    else:
+                        cand = dn + metric(float(dj), float(di), mode)
+                    if cand < F[s, D, i, j] - 1e-12:
+                        F[s, SX, i, j] = sx
+                        F[s, SY, i, j] = sy
+                        F[s, D, i, j] = cand
+                        F[s, V, i, j] = F[s, V, ii, jj]
+                        changed = True
+    return changed
+
+
+@njit(cache=True, nogil=True)
+def propagate(F, band, offs, mode, max_iter):
+    """Sweep until nothing changes (at most max_iter forward/backward pairs); returns sweeps done."""
+    for it in range(max_iter):
+        c1 = _sweep(F, band, offs, mode, True)
+        c2 = _sweep(F, band, offs, mode, False)
+        if not (c1 or c2):
+            return it + 1
+    return max_iter
+
+
+def propagate_ref(F, band, offs, mode, max_iter=10000):
+    """NumPy twin for the path-length metrics: Jacobi relaxation of the same graph, with whole-
+    array shifts, to the same fixed point (shortest paths within each band)."""
+    F = F.copy()
+    nr, nc = band.shape
+    all_offs = np.concatenate([offs, -offs])
+    for _ in range(max_iter):
+        changed = False
+        for di, dj in all_offs:
+            # node (i, j) receives from (i + di, j + dj)
+            src_i = slice(max(di, 0), nr + min(di, 0))
+            dst_i = slice(max(-di, 0), nr + min(-di, 0))
+            src_j = slice(max(dj, 0), nc + min(dj, 0))
+            dst_j = slice(max(-dj, 0), nc + min(-dj, 0))
+            same = band[src_i, src_j] == band[dst_i, dst_j]
+            w = abs(di) + abs(dj) if mode == MODE_MANHATTAN else np.hypot(di, dj)
+            for s in range(2):
+                cand = F[s, D][src_i, src_j] + w
+                better = same & (cand < F[s, D][dst_i, dst_j] - 1e-12)
+                if better.any():
+                    changed = True
+                    for f in (SX, SY, V):
+                        F[s, f][dst_i, dst_j] = np.where(better, F[s, f][src_i, src_j], F[s, f][dst_i, dst_j])
+                    F[s, D][dst_i, dst_j] = np.where(better, cand, F[s, D][dst_i, dst_j])
+        if not changed:
+            break
+    return F
+
+
+@njit(cache=True, nogil=True)
+def _root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit(cache=True, nogil=True)
+def label_nodes(band):
+    """8-connected regions of equal band: (labels (nr, nc) int32, count)."""
+    nr, nc = band.shape
+    parent = np.arange(nr * nc)
+    for i in range(nr):
+        for j in range(nc):
+            b = band[i, j]
+            k = i * nc + j
+            for di, dj in ((0, 1), (1, -1), (1, 0), (1, 1)):
+                ii = i + di
+                jj = j + dj
+                if 0 <= ii < nr and 0 <= jj < nc and band[ii, jj] == b:
+                    ra = _root(parent, k)
+                    rb = _root(parent, ii * nc + jj)
+                    if ra != rb:
+                        parent[max(ra, rb)] = min(ra, rb)
+    labels = np.empty((nr, nc), np.int32)
+    remap = np.full(nr * nc, -1, np.int64)
+    m = 0
+    for k in range(nr * nc):
+        r = _root(parent, k)
+        if remap[r] < 0:
+            remap[r] = m
+            m += 1
+        labels[k // nc, k % nc] = remap[r]
+    return labels, m
+
+
+@njit(cache=True, nogil=True)
+def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
+    """Per region: d_max of each side (0 where the side has no source) and the cap value
+    (NaN where no cap annotation falls in it)."""
+    nr, nc = band.shape
+    dmax = np.zeros((m, 2), np.float64)
+    for i in range(nr):
+        for j in range(nc):
+            k = labels[i, j]
+            for s in range(2):
+                d = F[s, D, i, j]
+                if d != np.inf and d > dmax[k, s]:
+                    dmax[k, s] = d
+    capv = np.full(m, np.nan)
+    for c in range(cap_x.shape[0]):
+        ci = int(np.floor(cap_y[c]))
+        cj = int(np.floor(cap_x[c]))
+        best = np.inf
+        bk = -1
+        for i in range(ci - 1, ci + 2):
+            for j in range(cj - 1, cj + 2):
+                if 0 <= i < nr and 0 <= j < nc and band[i, j] == cap_band[c]:
+                    dd = (j + 0.5 - cap_x[c]) ** 2 + (i + 0.5 - cap_y[c]) ** 2
+                    if dd < best:
+                        best = dd
+                        bk = labels[i, j]
+        if bk >= 0 and np.isnan(capv[bk]):
+            capv[bk] = cap_value[c]
+    return dmax, capv
+
+
+@njit(cache=True, nogil=True)
+def evaluate(F, nband, labels, dmax, capv, tband, xs, ys, levels, mode, flat, out):
+    """Fill values at target samples.
+
+    tband (n, m): band of each target sample; xs (m,), ys (n,): their positions in node units.
+    labels, dmax, capv: node regions and their cap data (label_nodes, region_caps).
+    out (n, m) float32 receives the values.
+    """
+    nr, nc = nband.shape
+    nl = levels.shape[0]
+    n, m = tband.shape
+    for a in range(n):
+        y = ys[a]
+        i0 = int(np.floor(y - 0.5))
+        for bcol in range(m):
+            x = xs[bcol]
+            b = tband[a, bcol]
+            # a chain that loops on itself (or a hostile file) can push the winding sum out
+            # of range; clamp so that every sample stays between the channel's extremes
+            if b < 0:
+                b = 0
+            elif b > nl:
+                b = nl
+            lo_b = levels[b - 1] if b >= 1 else levels[0] - (levels[1] - levels[0] if nl > 1 else 10.0)
+            hi_b = levels[b] if b < nl else levels[nl - 1] + (levels[nl - 1] - levels[nl - 2] if nl > 1 else 10.0)
+            mid = 0.5 * (lo_b + hi_b)
+            if flat:
+                out[a, bcol] = mid
+                continue
+            j0 = int(np.floor(x - 0.5))
+            reg = -1
+            reg_d = np.inf
+            best_d0 = np.inf
+            best_d1 = np.inf
+            v0 = 0.0
+            v1 = 0.0
+            found = False
+            for ring in range(2):
+                lo_i = i0 - ring
+                hi_i = i0 + 1 + ring
+                lo_j = j0 - ring
+                hi_j = j0 + 1 + ring
+                for i in range(lo_i, hi_i + 1):
+                    if i < 0 or i >= nr:
+                        continue
+                    for j in range(lo_j, hi_j + 1):
+                        if j < 0 or j >= nc or nband[i, j] != b:
+                            continue
+                        found = True
+                        dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
+                        if dn2 < reg_d:
+                            reg_d = dn2
+                            reg = labels[i, j]
+                        for s in range(2):
+                            dn = F[s, D, i, j]
+                            if dn == np.inf:
+                                continue
+                            sx = F[s, SX, i, j]
+                            sy = F[s, SY, i, j]
+                            if mode == 0:
+                                cand = metric(x - sx, y - sy, 0)
+                            else:
+                                cand = dn - metric(j + 0.5 - sx, i + 0.5 - sy, mode) + metric(x - sx, y - sy, mode)
+                                if cand < 0.0:
+                                    cand = 0.0
+                            if s == 0:
+                                if cand < best_d0:
+                                    best_d0 = cand
+                                    v0 = F[s, V, i, j]
+                            else:
+                                if cand < best_d1:
+                                    best_d1 = cand
+                                    v1 = F[s, V, i, j]
+                if found:
+                    break
+            if best_d0 == np.inf or best_d1 == np.inf:
+                cv = capv[reg] if reg >= 0 else np.nan
+                if best_d0 == np.inf and best_d1 == np.inf:
+                    out[a, bcol] = mid if np.isnan(cv) else cv
+                    continue
+                if best_d0 == np.inf:  # a pit: only the level above is a source
+                    lvl, d, s_other = v1, best_d1, 1
+                else:  # a peak
+                    lvl, d, s_other = v0, best_d0, 0
+                if np.isnan(cv):
+                    out[a, bcol] = 0.5 * (lvl + mid)
+                    continue
+                dm = dmax[reg, s_other]
+                f = 1.0 if dm <= 0.0 or d >= dm else d / dm
+                out[a, bcol] = lvl + (cv - lvl) * f
+                continue
+            tot = best_d0 + best_d1
+            if tot <= 0.0:
+                out[a, bcol] = 0.5 * (v0 + v1)
+            else:
+                out[a, bcol] = (v0 * best_d1 + v1 * best_d0) / tot

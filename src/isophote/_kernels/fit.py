@@ -1,0 +1,861 @@
+"""Kernels of the Bezier chain fitter (paper §3.3), with a plain NumPy reference twin.
+
+Used by :mod:`isophote.encoder.fit`, which documents and validates; nothing here checks its
+arguments. The numba kernels and the ``*_ref`` functions implement the same algorithm with
+the same floating-point expressions, so they agree to rounding (tests compare them).
+
+The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol``:
+
+1. Greedy longest fit. From the current start point i, the span end j grows exponentially
+   (i+2, i+4, i+8, ...) while the span fits, then a binary search between the last fitting
+   and the first failing end keeps the longest end found to fit. A span of one edge always
+   fits (the straight segment through its two points).
+2. A span fits when a cubic with the span's end points passes two tests after one of up
+   to ``ITERATIONS`` fits of its inner controls. The first fit is Schneider's: least squares
+   (weights 1/tol^2) over chord-length parameters. Each later one is a Gauss-Newton step of
+   tangent distance minimisation (the residuals' components along the curve normals at the
+   points' foot parameters, plus TANGENTIAL times the tangential ones): it converges in a
+   few steps where Schneider's alternation crawls. After every fit a Newton step moves each
+   point's parameter towards its foot on the curve. The tests: every point k lies within
+   tol[k] of the curve point B(u[k]) (an upper bound of its distance to the curve), and
+   every curve sample (at least two between consecutive parameters) lies within
+   max(tol[e], tol[e+1]) of some edge e of the span (so the curve cannot bulge between
+   points).
+3. G1 snapping: at each joint whose incoming and outgoing handles differ in direction by
+   less than the threshold, both handles are rotated onto their length-weighted bisector
+   (P - Cb + Ca - P) keeping their lengths; the change is kept only if both adjacent
+   segments still pass both tests.
+
+Closed polylines are rotated to start at their sharpest turn and closed by repeating that
+point, then fitted as open ones; their closing joint is snapped last.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Fits per span (one least-squares fit, then Gauss-Newton steps), and Newton
+# reparameterisation steps when a snapped segment is checked.
+ITERATIONS = 3
+NEWTON_STEPS = 2
+# A span whose worst point is still farther than GIVE_UP[it] tolerances from its curve after
+# fit `it` is rejected at once: later steps rarely rescue fits that bad (each step cuts the
+# error several times over), and rejecting early keeps the search cheap.
+GIVE_UP = (16.0, 4.0)
+# Weight of the tangential residual component in the Gauss-Newton steps (1 would be
+# Schneider's point distance, 0 pure tangent distance, which can be singular).
+TANGENTIAL = 0.01
+# Curve samples between two consecutive points, for the bulge test: two, plus one for every
+# SPACING tolerances of curve length (bounded by the control polygon) in the interval.
+SPACING = 8.0
+MAX_EXTRA_SAMPLES = 30
+# Relative Tikhonov term pulling the inner controls towards the straight segment's thirds:
+# it makes spans with fewer than two inner points well posed and is negligible otherwise.
+RIDGE = 1e-6
+
+
+# ---------------------------------------------------------------------------------------
+# numba kernels
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True, error_model="numpy")
+def _seg_dist2(px, py, ax, ay, bx, by):
+    """Squared distance from (px, py) to the segment a-b."""
+    ex = bx - ax
+    ey = by - ay
+    ll = ex * ex + ey * ey
+    h = 0.0
+    if ll > 0.0:
+        h = ((px - ax) * ex + (py - ay) * ey) / ll
+        if h < 0.0:
+            h = 0.0
+        elif h > 1.0:
+            h = 1.0
+    dx = ax + h * ex - px
+    dy = ay + h * ey - py
+    return dx * dx + dy * dy
+
+
+@njit(cache=True, error_model="numpy")
+def _lsq(q, tol, i, j, u, c):
+    """Least-squares inner controls of the span i..j for parameters u; writes c[0:4]."""
+    p0x = q[i, 0]
+    p0y = q[i, 1]
+    p3x = q[j, 0]
+    p3y = q[j, 1]
+    a11 = 0.0
+    a12 = 0.0
+    a22 = 0.0
+    r1x = 0.0
+    r1y = 0.0
+    r2x = 0.0
+    r2y = 0.0
+    for k in range(i + 1, j):
+        t = u[k]
+        s = 1.0 - t
+        b0 = s * s * s
+        b1 = 3.0 * s * s * t
+        b2 = 3.0 * s * t * t
+        b3 = t * t * t
+        w = 1.0 / (tol[k] * tol[k])
+        rx = q[k, 0] - b0 * p0x - b3 * p3x
+        ry = q[k, 1] - b0 * p0y - b3 * p3y
+        a11 += w * b1 * b1
+        a12 += w * b1 * b2
+        a22 += w * b2 * b2
+        r1x += w * b1 * rx
+        r1y += w * b1 * ry
+        r2x += w * b2 * rx
+        r2y += w * b2 * ry
+    lam = RIDGE * (a11 + a22)
+    if not lam > 0.0:
+        lam = 1.0
+    a11 += lam
+    a22 += lam
+    r1x += lam * (p0x + (p3x - p0x) / 3.0)
+    r1y += lam * (p0y + (p3y - p0y) / 3.0)
+    r2x += lam * (p0x + 2.0 * (p3x - p0x) / 3.0)
+    r2y += lam * (p0y + 2.0 * (p3y - p0y) / 3.0)
+    det = a11 * a22 - a12 * a12
+    c[0] = (a22 * r1x - a12 * r2x) / det
+    c[1] = (a22 * r1y - a12 * r2y) / det
+    c[2] = (a11 * r2x - a12 * r1x) / det
+    c[3] = (a11 * r2y - a12 * r1y) / det
+
+
+@njit(cache=True, error_model="numpy")
+def _tdm(q, tol, i, j, u, c):
+    """One Gauss-Newton step of tangent distance minimisation for the inner controls c
+    (updated in place), linearised at the foot parameters u on the current curve."""
+    p0x = q[i, 0]
+    p0y = q[i, 1]
+    p3x = q[j, 0]
+    p3y = q[j, 1]
+    d0x = c[0] - p0x
+    d0y = c[1] - p0y
+    d1x = c[2] - c[0]
+    d1y = c[3] - c[1]
+    d2x = p3x - c[2]
+    d2y = p3y - c[3]
+    # A = sum w (b b^T kron M), M = TANGENTIAL I + (1 - TANGENTIAL) n n^T; unknowns
+    # (c1x, c1y, c2x, c2y)
+    s11xx = 0.0
+    s11xy = 0.0
+    s11yy = 0.0
+    s12xx = 0.0
+    s12xy = 0.0
+    s12yy = 0.0
+    s22xx = 0.0
+    s22xy = 0.0
+    s22yy = 0.0
+    r1x = 0.0
+    r1y = 0.0
+    r2x = 0.0
+    r2y = 0.0
+    for k in range(i + 1, j):
+        t = u[k]
+        s = 1.0 - t
+        gx = 3.0 * (s * s * d0x + 2.0 * s * t * d1x + t * t * d2x)
+        gy = 3.0 * (s * s * d0y + 2.0 * s * t * d1y + t * t * d2y)
+        gl = gx * gx + gy * gy
+        if gl > 0.0:
+            mxx = TANGENTIAL + (1.0 - TANGENTIAL) * gy * gy / gl
+            myy = TANGENTIAL + (1.0 - TANGENTIAL) * gx * gx / gl
+            mxy = -(1.0 - TANGENTIAL) * gx * gy / gl
+        else:
+            mxx = 1.0
+            myy = 1.0
+            mxy = 0.0
+        b0 = s * s * s
+        b1 = 3.0 * s * s * t
+        b2 = 3.0 * s * t * t
+        b3 = t * t * t
+        w = 1.0 / (tol[k] * tol[k])
+        rx = q[k, 0] - b0 * p0x - b3 * p3x
+        ry = q[k, 1] - b0 * p0y - b3 * p3y
+        f = w * b1 * b1
+        s11xx += f * mxx
+        s11xy += f * mxy
+        s11yy += f * myy
+        f = w * b1 * b2
+        s12xx += f * mxx
+        s12xy += f * mxy
+        s12yy += f * myy
+        f = w * b2 * b2
+        s22xx += f * mxx
+        s22xy += f * mxy
+        s22yy += f * myy
+        mrx = w * (mxx * rx + mxy * ry)
+        mry = w * (mxy * rx + myy * ry)
+        r1x += b1 * mrx
+        r1y += b1 * mry
+        r2x += b2 * mrx
+        r2y += b2 * mry
+    a = np.empty((4, 5))
+    a[0, 0] = s11xx
+    a[0, 1] = s11xy
+    a[0, 2] = s12xx
+    a[0, 3] = s12xy
+    a[1, 1] = s11yy
+    a[1, 2] = s12xy
+    a[1, 3] = s12yy
+    a[2, 2] = s22xx
+    a[2, 3] = s22xy
+    a[3, 3] = s22yy
+    for r in range(4):
+        for col in range(r):
+            a[r, col] = a[col, r]
+    a[0, 4] = r1x
+    a[1, 4] = r1y
+    a[2, 4] = r2x
+    a[3, 4] = r2y
+    # Levenberg-Marquardt style ridge towards the current controls
+    lam = RIDGE * (a[0, 0] + a[1, 1] + a[2, 2] + a[3, 3])
+    if not lam > 0.0:
+        lam = 1.0
+    for r in range(4):
+        a[r, r] += lam
+        a[r, 4] += lam * c[r]
+    _solve4(a, c)
+
+
+@njit(cache=True, error_model="numpy")
+def _solve4(a, x):
+    """Solve the symmetric positive definite system a[:, :4] x = a[:, 4] (a is destroyed)
+    by Gaussian elimination without pivoting."""
+    for r in range(4):
+        for k in range(r + 1, 4):
+            f = a[k, r] / a[r, r]
+            for col in range(r, 5):
+                a[k, col] -= f * a[r, col]
+    for r in range(3, -1, -1):
+        v = a[r, 4]
+        for col in range(r + 1, 4):
+            v -= a[r, col] * x[col]
+        x[r] = v / a[r, r]
+
+
+@njit(cache=True, error_model="numpy")
+def _point_err(q, tol, i, j, u, c, limit):
+    """Largest (|B(u[k]) - q[k]| / tol[k])^2 over the inner points, stopping past limit."""
+    p0x = q[i, 0]
+    p0y = q[i, 1]
+    p3x = q[j, 0]
+    p3y = q[j, 1]
+    worst = 0.0
+    for k in range(i + 1, j):
+        t = u[k]
+        s = 1.0 - t
+        b0 = s * s * s
+        b1 = 3.0 * s * s * t
+        b2 = 3.0 * s * t * t
+        b3 = t * t * t
+        dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
+        dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
+        e = (dx * dx + dy * dy) / (tol[k] * tol[k])
+        if e > worst:
+            worst = e
+            if e > limit:
+                break
+    return worst
+
+
+@njit(cache=True, error_model="numpy")
+def _newton(q, i, j, u, c):
+    """One Newton step of every inner parameter towards its point's projection, then
+    clamp to [0, 1] and make the parameters non-decreasing."""
+    p0x = q[i, 0]
+    p0y = q[i, 1]
+    p3x = q[j, 0]
+    p3y = q[j, 1]
+    # first and second derivative coefficients
+    d0x = c[0] - p0x
+    d0y = c[1] - p0y
+    d1x = c[2] - c[0]
+    d1y = c[3] - c[1]
+    d2x = p3x - c[2]
+    d2y = p3y - c[3]
+    e0x = d1x - d0x
+    e0y = d1y - d0y
+    e1x = d2x - d1x
+    e1y = d2y - d1y
+    for k in range(i + 1, j):
+        t = u[k]
+        s = 1.0 - t
+        b0 = s * s * s
+        b1 = 3.0 * s * s * t
+        b2 = 3.0 * s * t * t
+        b3 = t * t * t
+        dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
+        dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
+        gx = 3.0 * (s * s * d0x + 2.0 * s * t * d1x + t * t * d2x)
+        gy = 3.0 * (s * s * d0y + 2.0 * s * t * d1y + t * t * d2y)
+        hx = 6.0 * (s * e0x + t * e1x)
+        hy = 6.0 * (s * e0y + t * e1y)
+        num = dx * gx + dy * gy
+        den = gx * gx + gy * gy + dx * hx + dy * hy
+        if den > 0.0:
+            t = t - num / den
+            if t < 0.0:
+                t = 0.0
+            elif t > 1.0:
+                t = 1.0
+            u[k] = t
+    for k in range(i + 1, j):
+        if u[k] < u[k - 1]:
+            u[k] = u[k - 1]
+
+
+@njit(cache=True, error_model="numpy")
+def _near_edge(q, tol, i, j, k, x, y):
+    """Is (x, y) within max(tol[e], tol[e+1]) of some edge e of the span i..j? Edges are
+    tried outwards from k, the edge whose stretch of curve the point belongs to."""
+    for r in range(j - i):
+        for e in (k - r, k + r):
+            if e < i or e >= j or (r == 0 and e != k - r):
+                continue
+            te = max(tol[e], tol[e + 1])
+            if _seg_dist2(x, y, q[e, 0], q[e, 1], q[e + 1, 0], q[e + 1, 1]) <= te * te:
+                return True
+        if k - r < i and k + r >= j - 1:
+            break
+    return False
+
+
+@njit(cache=True, error_model="numpy")
+def _bulge_ok(q, tol, i, j, u, c):
+    """True when the curve, sampled between consecutive parameters, stays inside the
+    ribbon of the span's edges (see _near_edge)."""
+    p0x = q[i, 0]
+    p0y = q[i, 1]
+    p3x = q[j, 0]
+    p3y = q[j, 1]
+    vx = c[0] - p0x
+    vy = c[1] - p0y
+    speed = vx * vx + vy * vy
+    vx = c[2] - c[0]
+    vy = c[3] - c[1]
+    speed = max(speed, vx * vx + vy * vy)
+    vx = p3x - c[2]
+    vy = p3y - c[3]
+    speed = 3.0 * math.sqrt(max(speed, vx * vx + vy * vy))
+    for k in range(i, j):
+        tl = max(tol[k], tol[k + 1])
+        du = u[k + 1] - u[k]
+        extra = speed * du / (SPACING * tl)
+        ns = 2
+        if extra >= MAX_EXTRA_SAMPLES:
+            ns += MAX_EXTRA_SAMPLES
+        else:
+            ns += int(extra)
+        for m in range(1, ns + 1):
+            t = u[k] + du * m / (ns + 1)
+            s = 1.0 - t
+            b0 = s * s * s
+            b1 = 3.0 * s * s * t
+            b2 = 3.0 * s * t * t
+            b3 = t * t * t
+            x = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x
+            y = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y
+            if not _near_edge(q, tol, i, j, k, x, y):
+                return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _straight(q, i, j, c):
+    """Inner controls of the straight segment q[i]-q[j], at its thirds."""
+    c[0] = q[i, 0] + (q[j, 0] - q[i, 0]) / 3.0
+    c[1] = q[i, 1] + (q[j, 1] - q[i, 1]) / 3.0
+    c[2] = q[i, 0] + 2.0 * (q[j, 0] - q[i, 0]) / 3.0
+    c[3] = q[i, 1] + 2.0 * (q[j, 1] - q[i, 1]) / 3.0
+
+
+@njit(cache=True, error_model="numpy")
+def _fit_span(q, tol, cum, i, j, u, c):
+    """Fit the span i..j; True when it passes (then c holds the controls, u[i..j] the
+    parameters)."""
+    if j == i + 1:
+        _straight(q, i, j, c)
+        u[i] = 0.0
+        u[j] = 1.0
+        return True
+    length = cum[j] - cum[i]
+    for k in range(i, j):
+        if length > 0.0:
+            u[k] = (cum[k] - cum[i]) / length
+        else:
+            u[k] = (k - i) / (j - i)
+    u[j] = 1.0
+    for it in range(ITERATIONS):
+        if it == 0:
+            _lsq(q, tol, i, j, u, c)
+        else:
+            _tdm(q, tol, i, j, u, c)
+        _newton(q, i, j, u, c)
+        limit = GIVE_UP[it] * GIVE_UP[it] if it < len(GIVE_UP) else 1.0
+        worst = _point_err(q, tol, i, j, u, c, limit)
+        if worst <= 1.0 and _bulge_ok(q, tol, i, j, u, c):
+            return True
+        if worst > limit:
+            return False
+    return False
+
+
+@njit(cache=True, error_model="numpy")
+def _check_fixed(q, tol, i, j, u, c):
+    """Does the cubic with controls c still fit the span i..j? Reparameterises u first."""
+    # a joint's point is shared by two segments: its parameter is 0 in one, 1 in the other
+    u[i] = 0.0
+    u[j] = 1.0
+    for _ in range(NEWTON_STEPS):
+        _newton(q, i, j, u, c)
+    if _point_err(q, tol, i, j, u, c, 1.0) > 1.0:
+        return False
+    return _bulge_ok(q, tol, i, j, u, c)
+
+
+@njit(cache=True, error_model="numpy")
+def _snap_joint(q, tol, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
+    """Snap the joint between segment a (incoming) and b (outgoing) if it qualifies and
+    both segments still fit. ut, ca, cb are scratch."""
+    px = q[ends[a + 1], 0]
+    py = q[ends[a + 1], 1]
+    ix = px - ctrl[a, 2]
+    iy = py - ctrl[a, 3]
+    ox = ctrl[b, 0] - px
+    oy = ctrl[b, 1] - py
+    li = math.sqrt(ix * ix + iy * iy)
+    lo = math.sqrt(ox * ox + oy * oy)
+    if not (li > 0.0 and lo > 0.0):
+        return
+    dot = ix * ox + iy * oy
+    cross = ix * oy - iy * ox
+    if cross == 0.0 or dot <= cos_snap * li * lo:
+        return
+    bx = ix + ox
+    by = iy + oy
+    bl = math.sqrt(bx * bx + by * by)
+    bx /= bl
+    by /= bl
+    for k in range(4):
+        ca[k] = ctrl[a, k]
+        cb[k] = ctrl[b, k]
+    ca[2] = px - li * bx
+    ca[3] = py - li * by
+    if a == b:
+        cb = ca
+    cb[0] = px + lo * bx
+    cb[1] = py + lo * by
+    nseg = 1 if a == b else 2
+    for r in range(nseg):
+        g = a if r == 0 else b
+        for k in range(ends[g], ends[g + 1] + 1):
+            ut[k] = u[k]
+        if not _check_fixed(q, tol, ends[g], ends[g + 1], ut, ca if r == 0 else cb):
+            return
+    for r in range(nseg):
+        g = a if r == 0 else b
+        for k in range(ends[g], ends[g + 1] + 1):
+            u[k] = ut[k]
+    for k in range(4):
+        ctrl[a, k] = ca[k]
+        ctrl[b, k] = cb[k]
+
+
+@njit(cache=True, error_model="numpy")
+def _fit_open(q, tol, n, closed, cos_snap, cum, u, ut, c, cbest, ends, ctrl, ca, cb):
+    """Fit q[:n] (already closed by repetition when `closed`); fills ends[0:m+1] and
+    ctrl[0:m]; returns m."""
+    cum[0] = 0.0
+    for k in range(1, n):
+        dx = q[k, 0] - q[k - 1, 0]
+        dy = q[k, 1] - q[k - 1, 1]
+        cum[k] = cum[k - 1] + math.sqrt(dx * dx + dy * dy)
+    last = n - 1
+    ends[0] = 0
+    i = ends[0]  # read back: a literal 0 here would make numba compile callees twice
+    m = 0
+    while i < last:
+        # exponential search (hi < 0) then binary search for the longest span that fits;
+        # one call site of _fit_span keeps the compiled code small
+        lo = i + 1
+        _straight(q, i, lo, cbest)
+        hi = -1
+        step = 2
+        while True:
+            if hi < 0:
+                if lo >= last:
+                    break
+                j = min(i + step, last)
+                step *= 2
+            else:
+                if hi - lo <= 1:
+                    break
+                j = (lo + hi) // 2
+            if _fit_span(q, tol, cum, i, j, u, c):
+                lo = j
+                for k in range(4):
+                    cbest[k] = c[k]
+                for k in range(i, j + 1):
+                    ut[k] = u[k]
+            else:
+                hi = j
+        # the accepted span's parameters live in ut when it was not the trivial one
+        if lo > i + 1:
+            for k in range(i, lo + 1):
+                u[k] = ut[k]
+        else:
+            u[i] = 0.0
+            u[lo] = 1.0
+        for k in range(4):
+            ctrl[m, k] = cbest[k]
+        m += 1
+        ends[m] = lo
+        i = lo
+    if cos_snap < 1.0:
+        # interior joints in order, then the closing joint of a closed chain
+        for a in range(m - 1 + (1 if closed else 0)):
+            _snap_joint(q, tol, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
+    return m
+
+
+@njit(cache=True, error_model="numpy")
+def _start_index(pts, o, n):
+    """Index (from o) of the sharpest turn of the closed polyline pts[o:o+n] (the first
+    one on ties)."""
+    best = -1.0
+    ibest = 0
+    for k in range(n):
+        a = o + (k - 1 if k > 0 else n - 1)
+        b = o + k
+        c = o + (k + 1 if k + 1 < n else 0)
+        x1 = pts[b, 0] - pts[a, 0]
+        y1 = pts[b, 1] - pts[a, 1]
+        x2 = pts[c, 0] - pts[b, 0]
+        y2 = pts[c, 1] - pts[b, 1]
+        ang = math.atan2(abs(x1 * y2 - y1 * x2), x1 * x2 + y1 * y2)
+        if ang > best:
+            best = ang
+            ibest = k
+    return ibest
+
+
+@njit(cache=True, error_model="numpy")
+def fit_many_kernel(points, tol, offsets, closed, cos_snap):
+    """Fit every polyline; returns (chains (P, 2), chain_offsets (K+1,) int64)."""
+    npoly = offsets.shape[0] - 1
+    nmax = 0
+    for p in range(npoly):
+        nmax = max(nmax, offsets[p + 1] - offsets[p])
+    size = nmax + 1
+    q = np.empty((size, 2))
+    tq = np.empty(size)
+    cum = np.empty(size)
+    u = np.empty(size)
+    ut = np.empty(size)
+    ends = np.empty(size, np.int64)
+    ctrl = np.empty((size, 4))
+    c = np.empty(4)
+    cbest = np.empty(4)
+    ca = np.empty(4)
+    cb = np.empty(4)
+    cap = max(16, points.shape[0])
+    out = np.empty((cap, 2))
+    chain_offsets = np.empty(npoly + 1, np.int64)
+    chain_offsets[0] = 0
+    used = 0
+    for p in range(npoly):
+        o = offsets[p]
+        n = offsets[p + 1] - o
+        if closed[p]:
+            s = _start_index(points, o, n)
+            for k in range(n):
+                r = s + k
+                if r >= n:
+                    r -= n
+                q[k, 0] = points[o + r, 0]
+                q[k, 1] = points[o + r, 1]
+                tq[k] = tol[o + r]
+            q[n, 0] = q[0, 0]
+            q[n, 1] = q[0, 1]
+            tq[n] = tq[0]
+            nn = n + 1
+        else:
+            for k in range(n):
+                q[k, 0] = points[o + k, 0]
+                q[k, 1] = points[o + k, 1]
+                tq[k] = tol[o + k]
+            nn = n
+        m = _fit_open(q, tq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, ends, ctrl, ca, cb)
+        need = used + 1 + 3 * m
+        if need > cap:
+            while cap < need:
+                cap *= 2
+            grown = np.empty((cap, 2))
+            for r in range(used):
+                grown[r, 0] = out[r, 0]
+                grown[r, 1] = out[r, 1]
+            out = grown
+        out[used, 0] = q[0, 0]
+        out[used, 1] = q[0, 1]
+        for g in range(m):
+            r = used + 1 + 3 * g
+            out[r, 0] = ctrl[g, 0]
+            out[r, 1] = ctrl[g, 1]
+            out[r + 1, 0] = ctrl[g, 2]
+            out[r + 1, 1] = ctrl[g, 3]
+            out[r + 2, 0] = q[ends[g + 1], 0]
+            out[r + 2, 1] = q[ends[g + 1], 1]
+        used = need
+        chain_offsets[p + 1] = used
+    chains = np.empty((used, 2))
+    for r in range(used):
+        chains[r, 0] = out[r, 0]
+        chains[r, 1] = out[r, 1]
+    return chains, chain_offsets
+
+
+# ---------------------------------------------------------------------------------------
+# NumPy reference twin: the same algorithm, written for reading, not speed.
+# ---------------------------------------------------------------------------------------
+
+
+def _bernstein_ref(t):
+    s = 1.0 - t
+    return s * s * s, 3.0 * s * s * t, 3.0 * s * t * t, t * t * t
+
+
+def _eval_ref(p0, c, p3, t):
+    """Points of the cubic p0, (c[0], c[1]), (c[2], c[3]), p3 at parameters t: (len(t), 2)."""
+    b0, b1, b2, b3 = _bernstein_ref(t)
+    x = b0 * p0[0] + b1 * c[0] + b2 * c[2] + b3 * p3[0]
+    y = b0 * p0[1] + b1 * c[1] + b2 * c[3] + b3 * p3[1]
+    return np.stack([x, y], axis=1)
+
+
+def _lsq_ref(q, tol, i, j, u):
+    p0, p3 = q[i], q[j]
+    t = u[i + 1 : j]
+    b0, b1, b2, b3 = _bernstein_ref(t)
+    w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])
+    r = q[i + 1 : j] - b0[:, None] * p0 - b3[:, None] * p3
+    a11 = np.sum(w * b1 * b1)
+    a12 = np.sum(w * b1 * b2)
+    a22 = np.sum(w * b2 * b2)
+    r1 = np.sum((w * b1)[:, None] * r, axis=0)
+    r2 = np.sum((w * b2)[:, None] * r, axis=0)
+    lam = RIDGE * (a11 + a22)
+    if not lam > 0.0:
+        lam = 1.0
+    a11 += lam
+    a22 += lam
+    r1 = r1 + lam * (p0 + (p3 - p0) / 3.0)
+    r2 = r2 + lam * (p0 + 2.0 * (p3 - p0) / 3.0)
+    det = a11 * a22 - a12 * a12
+    c1 = (a22 * r1 - a12 * r2) / det
+    c2 = (a11 * r2 - a12 * r1) / det
+    return np.array([c1[0], c1[1], c2[0], c2[1]])
+
+
+def _tdm_ref(q, tol, i, j, u, c):
+    p0, p3 = q[i], q[j]
+    t = u[i + 1 : j]
+    s = 1.0 - t
+    b0, b1, b2, b3 = _bernstein_ref(t)
+    cc = np.array([[c[0], c[1]], [c[2], c[3]]])
+    g = 3.0 * ((s * s)[:, None] * (cc[0] - p0) + (2.0 * s * t)[:, None] * (cc[1] - cc[0])
+               + (t * t)[:, None] * (p3 - cc[1]))
+    gl = g[:, 0] * g[:, 0] + g[:, 1] * g[:, 1]
+    # M = TANGENTIAL I + (1 - TANGENTIAL) n n^T for the unit normal n of each foot point
+    nn = np.zeros((len(t), 2, 2))
+    ok = gl > 0.0
+    nn[ok, 0, 0] = g[ok, 1] * g[ok, 1] / gl[ok]
+    nn[ok, 1, 1] = g[ok, 0] * g[ok, 0] / gl[ok]
+    nn[ok, 0, 1] = nn[ok, 1, 0] = -g[ok, 0] * g[ok, 1] / gl[ok]
+    m = TANGENTIAL * np.eye(2) + (1.0 - TANGENTIAL) * nn
+    m[~ok] = np.eye(2)
+    w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])
+    r = q[i + 1 : j] - b0[:, None] * p0 - b3[:, None] * p3
+    basis = np.stack([b1, b2], axis=1)  # (k, 2)
+    a = np.einsum("k,ka,kb,kxy->axby", w, basis, basis, m).reshape(4, 4)
+    rhs = np.einsum("k,ka,kxy,ky->ax", w, basis, m, r).reshape(4)
+    lam = RIDGE * np.trace(a)
+    if not lam > 0.0:
+        lam = 1.0
+    return np.linalg.solve(a + lam * np.eye(4), rhs + lam * np.asarray(c))
+
+
+def _point_err_ref(q, tol, i, j, u, c):
+    if j - i < 2:
+        return 0.0
+    d = _eval_ref(q[i], c, q[j], u[i + 1 : j]) - q[i + 1 : j]
+    return float(np.max((d[:, 0] ** 2 + d[:, 1] ** 2) / (tol[i + 1 : j] * tol[i + 1 : j])))
+
+
+def _newton_ref(q, i, j, u, c):
+    p0, p3 = q[i], q[j]
+    cc = np.array([[c[0], c[1]], [c[2], c[3]]])
+    t = u[i + 1 : j].copy()
+    s = 1.0 - t
+    d = _eval_ref(p0, c, p3, t) - q[i + 1 : j]
+    d0, d1, d2 = cc[0] - p0, cc[1] - cc[0], p3 - cc[1]
+    g = 3.0 * ((s * s)[:, None] * d0 + (2.0 * s * t)[:, None] * d1 + (t * t)[:, None] * d2)
+    h = 6.0 * (s[:, None] * (d1 - d0) + t[:, None] * (d2 - d1))
+    num = d[:, 0] * g[:, 0] + d[:, 1] * g[:, 1]
+    den = g[:, 0] * g[:, 0] + g[:, 1] * g[:, 1] + d[:, 0] * h[:, 0] + d[:, 1] * h[:, 1]
+    ok = den > 0.0
+    t[ok] = np.clip(t[ok] - num[ok] / den[ok], 0.0, 1.0)
+    u[i + 1 : j] = t
+    u[i : j + 1] = np.maximum.accumulate(u[i : j + 1])
+
+
+def _bulge_ok_ref(q, tol, i, j, u, c):
+    poly = np.array([q[i], [c[0], c[1]], [c[2], c[3]], q[j]])
+    legs = np.diff(poly, axis=0)
+    speed = 3.0 * np.sqrt(np.max(legs[:, 0] * legs[:, 0] + legs[:, 1] * legs[:, 1]))
+    tl = np.maximum(tol[i:j], tol[i + 1 : j + 1])  # per edge (= per interval)
+    du = u[i + 1 : j + 1] - u[i:j]
+    ns = 2 + np.minimum(speed * du / (SPACING * tl), MAX_EXTRA_SAMPLES).astype(np.int64)
+    k = np.repeat(np.arange(j - i), ns)
+    m = np.arange(len(k)) - np.repeat(np.cumsum(ns) - ns, ns) + 1
+    x = _eval_ref(q[i], c, q[j], u[i:j][k] + du[k] * m / (ns[k] + 1))
+    a, e = q[i:j], q[i + 1 : j + 1] - q[i:j]
+    ll = e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1]
+    w = x[:, None, :] - a[None]
+    h = np.zeros((len(x), len(a)))
+    np.divide(w[..., 0] * e[:, 0] + w[..., 1] * e[:, 1], ll, out=h, where=ll > 0.0)
+    h = np.clip(h, 0.0, 1.0)
+    dx = a[:, 0] + h * e[:, 0] - x[:, None, 0]
+    dy = a[:, 1] + h * e[:, 1] - x[:, None, 1]
+    return bool(np.all(np.any(dx * dx + dy * dy <= tl * tl, axis=1)))
+
+
+def _fit_span_ref(q, tol, cum, i, j, u):
+    """Controls (4,) of the span i..j, or None when it does not fit; sets u[i..j]."""
+    if j == i + 1:
+        u[i], u[j] = 0.0, 1.0
+        a, b = q[i], q[j]
+        return np.array([a[0] + (b[0] - a[0]) / 3.0, a[1] + (b[1] - a[1]) / 3.0,
+                         a[0] + 2.0 * (b[0] - a[0]) / 3.0, a[1] + 2.0 * (b[1] - a[1]) / 3.0])
+    length = cum[j] - cum[i]
+    if length > 0.0:
+        u[i:j] = (cum[i:j] - cum[i]) / length
+    else:
+        u[i:j] = (np.arange(i, j) - i) / (j - i)
+    u[j] = 1.0
+    c = None
+    for it in range(ITERATIONS):
+        c = _lsq_ref(q, tol, i, j, u) if it == 0 else _tdm_ref(q, tol, i, j, u, c)
+        _newton_ref(q, i, j, u, c)
+        limit = GIVE_UP[it] ** 2 if it < len(GIVE_UP) else 1.0
+        worst = _point_err_ref(q, tol, i, j, u, c)
+        if worst <= 1.0 and _bulge_ok_ref(q, tol, i, j, u, c):
+            return c
+        if worst > limit:
+            return None
+    return None
+
+
+def _check_fixed_ref(q, tol, i, j, u, c):
+    u[i], u[j] = 0.0, 1.0
+    for _ in range(NEWTON_STEPS):
+        _newton_ref(q, i, j, u, c)
+    return _point_err_ref(q, tol, i, j, u, c) <= 1.0 and _bulge_ok_ref(q, tol, i, j, u, c)
+
+
+def _snap_joint_ref(q, tol, ends, ctrl, u, a, b, cos_snap):
+    p = q[ends[a + 1]]
+    din = p - ctrl[a][2:]
+    dout = ctrl[b][:2] - p
+    li, lo = np.sqrt(din @ din), np.sqrt(dout @ dout)
+    if not (li > 0.0 and lo > 0.0):
+        return
+    dot = din[0] * dout[0] + din[1] * dout[1]
+    cross = din[0] * dout[1] - din[1] * dout[0]
+    if cross == 0.0 or dot <= cos_snap * li * lo:
+        return
+    bis = din + dout
+    bis = bis / np.sqrt(bis[0] * bis[0] + bis[1] * bis[1])
+    ca, cb = ctrl[a].copy(), ctrl[b].copy()
+    ca[2:] = p - li * bis
+    if a == b:
+        cb = ca
+    cb[:2] = p + lo * bis
+    ut = u.copy()
+    segs = [(a, ca)] if a == b else [(a, ca), (b, cb)]
+    for g, cg in segs:
+        if not _check_fixed_ref(q, tol, ends[g], ends[g + 1], ut, cg):
+            return
+    for g, cg in segs:
+        u[ends[g] : ends[g + 1] + 1] = ut[ends[g] : ends[g + 1] + 1]
+        ctrl[g] = cg
+
+
+def fit_open_ref(q, tol, closed, cos_snap):
+    """(ends, ctrl) of the chain fitted to q (closed by repetition when `closed`)."""
+    n = len(q)
+    cum = np.concatenate([[0.0], np.cumsum(np.sqrt(np.sum(np.diff(q, axis=0) ** 2, axis=1)))])
+    u = np.zeros(n)
+    ends, ctrl = [0], []
+    i = 0
+    while i < n - 1:
+        lo, best, ubest = i + 1, _fit_span_ref(q, tol, cum, i, i + 1, u), None
+        hi, step = None, 2
+        while lo < n - 1:
+            j = min(i + step, n - 1)
+            c = _fit_span_ref(q, tol, cum, i, j, u)
+            if c is None:
+                hi = j
+                break
+            lo, best, ubest = j, c, u[i : j + 1].copy()
+            step *= 2
+        while hi is not None and hi - lo > 1:
+            mid = (lo + hi) // 2
+            c = _fit_span_ref(q, tol, cum, i, mid, u)
+            if c is None:
+                hi = mid
+            else:
+                lo, best, ubest = mid, c, u[i : mid + 1].copy()
+        if ubest is not None:
+            u[i : lo + 1] = ubest
+        else:
+            u[i], u[lo] = 0.0, 1.0
+        ends.append(lo)
+        ctrl.append(best)
+        i = lo
+    m = len(ctrl)
+    if cos_snap < 1.0:
+        for a in range(m - 1):
+            _snap_joint_ref(q, tol, ends, ctrl, u, a, a + 1, cos_snap)
+        if closed:
+            _snap_joint_ref(q, tol, ends, ctrl, u, m - 1, 0, cos_snap)
+    return ends, ctrl
+
+
+def fit_polyline_ref(points, tol, closed, cos_snap):
+    """Reference twin of fit_many_kernel for one polyline: the (1+3m, 2) chain."""
+    points = np.asarray(points, dtype=np.float64)
+    tol = np.asarray(tol, dtype=np.float64)
+    if closed:
+        prev = np.roll(points, 1, axis=0)
+        nxt = np.roll(points, -1, axis=0)
+        v1, v2 = points - prev, nxt - points
+        ang = np.arctan2(np.abs(v1[:, 0] * v2[:, 1] - v1[:, 1] * v2[:, 0]),
+                         v1[:, 0] * v2[:, 0] + v1[:, 1] * v2[:, 1])
+        s = int(np.argmax(ang))
+        q = np.roll(points, -s, axis=0)
+        t = np.roll(tol, -s)
+        q = np.concatenate([q, q[:1]])
+        t = np.concatenate([t, t[:1]])
+    else:
+        q, t = points.copy(), tol.copy()
+    ends, ctrl = fit_open_ref(q, t, closed, cos_snap)
+    rows = [q[0]]
+    for g, c in enumerate(ctrl):
+        rows += [c[:2], c[2:], q[ends[g + 1]]]
+    return np.array(rows, dtype=np.float64)

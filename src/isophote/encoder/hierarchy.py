@@ -1,0 +1,140 @@
+"""The encloses tree (§4) and cap annotations.
+
+parent(loop) is the innermost loop enclosing it, found by winding numbers along a ray
+(loops never cross, so one point of a loop decides; _kernels/enclose.py). Loops that lie
+wholly on the image border (the whole image is above their level) coincide and nest by level.
+A region is a footprint minus its children's footprints.
+
+Caps: a connected region (of the labelled band grid, _kernels/regions.py) whose bounding
+contours all have one level is a peak (band above that level)
+or a pit (band at or below it); it is annotated with its maximum or minimum sample. A region
+with no bounding contour at all (a channel that never crosses a level) gets its mean.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._kernels.enclose import innermost_enclosing
+from .._kernels.regions import label_regions, region_stats
+from .isolines import Isolines
+
+
+@dataclass(frozen=True)
+class Hierarchy:
+    parent: np.ndarray  # (C,) int32
+    n_regions: int
+    cap_band: np.ndarray
+    cap_contour: np.ndarray
+    cap_xy: np.ndarray
+    cap_value: np.ndarray
+
+
+def loop_areas(iso: Isolines) -> np.ndarray:
+    """Signed shoelace area of every loop, vectorised."""
+    p = iso.points
+    nxt = np.arange(1, p.shape[0] + 1)
+    ends = iso.offsets[1:] - 1
+    nxt[ends] = iso.offsets[:-1]
+    cross = p[:, 0] * p[nxt, 1] - p[nxt, 0] * p[:, 1]
+    cs = np.concatenate([[0.0], np.cumsum(cross)])
+    return 0.5 * (cs[iso.offsets[1:]] - cs[iso.offsets[:-1]])
+
+
+def segment_table(iso: Isolines):
+    """Segments as (x0, y0, x1, y1, loop) arrays and their bucketing by half-pixel grid row."""
+    p = iso.points
+    n = p.shape[0]
+    nxt = np.arange(1, n + 1)
+    nxt[iso.offsets[1:] - 1] = iso.offsets[:-1]
+    x0, y0, x1, y1 = p[:, 0], p[:, 1], p[nxt, 0], p[nxt, 1]
+    seg_loop = np.repeat(np.arange(iso.n_loops), np.diff(iso.offsets))
+    n_rows = max(iso.band.shape[0] - 3, 1)
+    row = np.clip(np.floor(np.minimum(y0, y1) * 2.0).astype(np.int64), 0, n_rows - 1)
+    row_order = np.argsort(row, kind="stable")
+    row_start = np.searchsorted(row[row_order], np.arange(n_rows + 1))
+    return x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows
+
+
+def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
+    """Parents (geometrically, by winding numbers) and caps (on the band grid's regions).
+
+    Isolines of several levels can pass between the same two grid samples, so some regions
+    of the hierarchy hold no sample; the tree is therefore built from the loops' geometry.
+    Caps always hold samples (a region above or below its only level contains a sample on
+    that side), so they are found on the labelled band grid: a region's bounding levels are
+    the levels of the crossings next to its samples.
+    """
+    c = iso.n_loops
+    area = loop_areas(iso)
+    x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows = segment_table(iso)
+    lev_loop = iso.level.astype(np.int64)
+    # one query point per loop: the midpoint of its first non-border, non-horizontal segment
+    cand = np.flatnonzero(~iso.border & (y0 != y1))
+    has_q, first = np.unique(seg_loop[cand], return_index=True)
+    qs = cand[first]
+    parent = np.full(c, -1, np.int64)
+    if qs.size:
+        parent[has_q] = innermost_enclosing(
+            0.5 * (x0[qs] + x1[qs]), 0.5 * (y0[qs] + y1[qs]), has_q.astype(np.int64),
+            x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+        )
+    # loops lying wholly on the border (the image is above their level everywhere) nest by level
+    all_border = np.setdiff1d(np.arange(c), has_q)
+    all_border = all_border[np.argsort(lev_loop[all_border], kind="stable")]
+    if all_border.size:
+        parent[all_border[1:]] = all_border[:-1]
+
+    labels, m = label_regions(iso.values, iso.band.astype(np.int64), np.asarray(levels, np.float64))
+    lab = labels.ravel()
+    band_flat = iso.band.ravel().astype(np.int64)
+    lev_seg = lev_loop[seg_loop]
+    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
+    hi = np.full(m, -1, np.int64)
+    # a crossing of level l touches the region of its above sample if that sample is in band
+    # l + 1, and the region of its below sample if that one is in band l (padding is band 0)
+    for smp, want in ((iso.above, lev_seg + 1), (iso.below, lev_seg)):
+        sel = band_flat[smp] == want
+        np.minimum.at(lo, lab[smp[sel]], lev_seg[sel])
+        np.maximum.at(hi, lab[smp[sel]], lev_seg[sel])
+    is_cap = (hi >= 0) & (lo == hi)
+    if c == 0:
+        is_cap = np.ones(m, bool)
+    amin, amax, total, count = region_stats(labels, iso.values, m)
+    is_cap &= count > 0  # the padding-only part of the root has no samples
+    regs = np.flatnonzero(is_cap)
+    band_flat = iso.band.ravel()
+    vals_flat = iso.values.ravel()
+    hp, wp = iso.band.shape
+    cap_band, cap_idx, cap_value = [], [], []
+    for reg in regs:
+        b = int(band_flat[amin[reg]])
+        if hi[reg] < 0:  # no bounding contour: the mean, at the sample closest to it
+            idx = int(amin[reg])
+            value = total[reg] / count[reg]
+        elif b == lo[reg] + 1:  # above its only level: a peak
+            idx = int(amax[reg])
+            value = vals_flat[idx]
+        else:  # at or below its only level: a pit
+            idx = int(amin[reg])
+            value = vals_flat[idx]
+        cap_band.append(b)
+        cap_idx.append(idx)
+        cap_value.append(value)
+    cap_idx = np.asarray(cap_idx, np.int64)
+    r, cc = np.divmod(cap_idx, wp)
+    cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
+    cap_contour = innermost_enclosing(
+        cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_idx), -1, np.int64),
+        x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+    ) if c else np.full(len(cap_idx), -1, np.int64)
+    return Hierarchy(
+        parent=parent.astype(np.int32),
+        n_regions=m,
+        cap_band=np.asarray(cap_band, np.int32),
+        cap_contour=cap_contour.astype(np.int32),
+        cap_xy=cap_xy,
+        cap_value=np.asarray(cap_value, np.float64),
+    )

@@ -1,0 +1,36 @@
+"""Level lists (§1, §3.3).
+
+Levels sit between representable values: 127.5 + k * step for every k with the level in
+[7.5, 247.5], so an 8-bit value never equals a level (the paper's 127 +- 10k, shifted by half a
+grey level). Y every 10 gives 25 levels and U, V every 5 give 49, as in §1.
+The comparison rule used everywhere: a sample equal to a level counts as above it, i.e. the
+band of a value v is the number of levels <= v (``np.searchsorted(levels, v, "right")``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+CENTRE = 127.5
+LOW, HIGH = 7.5, 247.5
+
+
+def preset_levels(step: float) -> np.ndarray:
+    """127.5 + k*step inside [7.5, 247.5], increasing."""
+    k_lo = int(np.ceil((LOW - CENTRE) / step - 1e-9))
+    k_hi = int(np.floor((HIGH - CENTRE) / step + 1e-9))
+    return CENTRE + step * np.arange(k_lo, k_hi + 1, dtype=np.float64)
+
+
+def bands(values: np.ndarray, levels: np.ndarray) -> np.ndarray:
+    """Band of each value: the number of levels <= value (int16)."""
+    return np.searchsorted(levels, values, side="right").astype(np.int16)
+
+
+def channel_levels(name: str, options) -> np.ndarray:
+    """The levels of channel ``name`` ("Y", "U", "V", "A") under resolved EncodeOptions."""
+    explicit = {"Y": options.levels_y, "U": options.levels_u, "V": options.levels_v}.get(name)
+    if explicit is not None:
+        return np.asarray(explicit, dtype=np.float64)
+    step = {"Y": options.y_step, "U": options.uv_step, "V": options.uv_step, "A": options.alpha_step}[name]
+    return preset_levels(step)

@@ -1,0 +1,912 @@
+"""The .isoph binary format: a VectorImage on disk.
+
+This docstring is the specification; docs/format.md says the same for readers who do not read
+Python. Every multi-byte number is LITTLE-ENDIAN. CRC-32 is the ISO-HDLC one of zlib and PNG
+(``zlib.crc32``). Offsets are in bytes from the start of the file.
+
+Overview
+========
+A file is a header that can be read on its own, then one compressed payload::
+
+    +---------------------------------------------+  offset 0
+    | preamble (16 bytes, the same in every       |
+    |   version)                                  |
+    | header body (version 1: fixed fields, meta  |
+    |   JSON, one summary per channel)            |
+    | header_crc (u32)                            |  ends at offset header_size
+    +---------------------------------------------+
+    | payload (payload_size bytes, compressed)    |  ends at the end of the file
+    +---------------------------------------------+
+
+Nothing may follow the payload. The header holds everything ``isophote info`` shows (size,
+colour, every channel's levels and counts) and declares every count before any array is
+read, so a reader checks the counts against the limits below and against the payload size
+before it allocates anything.
+
+Preamble (16 bytes, version-independent)
+----------------------------------------
+::
+
+    offset size  field
+     0     8     magic        89 49 53 4F 50 48 0D 0A   ("\\x89ISOPH\\r\\n")
+     8     u16   version      1
+    10     u16   reserved     0
+    12     u32   header_size  bytes from offset 0 to the end of header_crc
+
+The magic's first byte has its high bit set and its last two are CR LF, so 7-bit transfers and
+newline conversion both break it (the trick of PNG's signature). Every version keeps this
+preamble and keeps ``header_crc`` in the last 4 bytes of the header, so a reader checks the
+checksum first and only then trusts ``version``: a corrupted version number reads as
+corruption, a genuine newer file as "unsupported version N".
+
+Header body (version 1)
+-----------------------
+::
+
+    offset size  field
+    16     u32   width          canvas width in source pixels, 1 .. MAX_WIDTH
+    20     u32   height         canvas height in source pixels, 1 .. MAX_HEIGHT
+    24     u8    colour         0 = "grey", 1 = "yuv"
+    25     u8    source_depth   8 or 16 (informational)
+    26     u8    n_channels     1 .. MAX_CHANNELS (see "Channels" below)
+    27     u8    compression    0 = stored, 1 = zlib, 2 = LZMA2 (see "Payload")
+    28     u16   xy_quant       64: coordinates are integers in 1/64 source pixel
+    30     u16   value_quant    64: cap values are integers in 1/64 grey level
+    32     u64   payload_size   bytes of the payload as stored after the header
+    40     u64   raw_size       bytes of the payload after decompression
+    48     u32   payload_crc    CRC-32 of the payload_size stored payload bytes
+    52     u32   meta_size      0 .. MAX_META_BYTES
+    56     ...   meta           meta_size bytes: a UTF-8 JSON object (nothing if meta_size 0)
+    then n_channels channel summaries of 15 + 8 L bytes each:
+           u8    name           ASCII "Y", "U", "V" or "A"
+           u16   n_levels       L, 0 .. MAX_LEVELS
+           u32   n_contours     C, 0 .. n_segments (every contour has at least 1 segment)
+           u32   n_segments     S, over all the channel's contours, 0 .. MAX_SEGMENTS
+           u32   n_caps         K, 0 .. MAX_CAPS
+           f64   levels[L]      finite, strictly increasing
+    then   u32   header_crc     CRC-32 of bytes [0, header_size - 4)
+
+Version 1 requires both quanta to be 64 (they are fields so that a later version can change
+them without a new layout). Channels are in the data model's canonical order: "grey" has Y,
+or Y and A; "yuv" has Y, U, V, or Y, U, V and A. A channel with contours has levels (C > 0
+needs L > 0).
+
+``meta`` holds ``VectorImage.meta`` as JSON with sorted keys and no spaces, so that equal
+dicts give equal bytes. It round-trips as JSON does: tuples come back as lists and keys as
+strings; NumPy scalars and arrays are written as numbers and lists; anything else, NaN and
+infinity included, cannot be written. ``VectorImage.equals`` ignores meta.
+
+Payload
+-------
+``compression`` says how the ``raw_size`` raw bytes are stored:
+
+- 0, stored: the raw bytes themselves (``payload_size == raw_size``).
+- 1, zlib: one zlib stream (RFC 1950). The writer uses level 6 and this by default.
+- 2, LZMA2: one raw LZMA2 stream (no .xz container) whose dictionary is at most
+  LZMA_DICT_SIZE = 8 MiB; a reader decodes it with an 8 MiB dictionary. The writer uses
+  preset 6 when asked for "lzma".
+
+The stream must decompress to exactly ``raw_size`` bytes and end exactly at the end of the
+file. Measured on photograph-like contour sets (smooth closed chains of 4-12 px G1 cubic
+segments): zlib 6.5-7.9 bytes per segment, writing ~1 M segments/s and reading ~10 M/s;
+LZMA2 3-7 % smaller but 10 times slower both ways. ``raw_size`` may not exceed
+``MAX_EXPANSION * payload_size + EXPANSION_SLACK``; the writer stores the payload (code 0)
+in the rare case that the compressor does better than that.
+
+Raw payload
+-----------
+The raw payload is the channels' columns, channel after channel in header order, and
+nothing else. A column of n values of width w bytes (u16: w = 2, u32: w = 4) is stored as w
+BYTE PLANES of n bytes each, least significant first: plane j holds byte j of every value::
+
+    values     0x0102  0x0304  0x0506              (u16, n = 3)
+    stored     02 04 06 | 01 03 05                 (plane 0, then plane 1)
+
+so the mostly-zero high bytes of small numbers form runs the compressor removes (plane
+layouts compressed 5-12 % better with zlib than interleaved varints). ``zz(v)`` is the
+zigzag map from signed to unsigned: 0, -1, 1, -2, 2 ... -> 0, 1, 2, 3, 4 ...
+(``(v << 1) ^ (v >> 63)``). For a channel with L levels, C contours, S segments and K caps::
+
+    column        values  width  value                       meaning
+    level         C       u16    zz(lev[k] - lev[k-1])       contour_level, lev[-1] = 0
+    n_segments    C       u32    n[k] - 1                    n[k] >= 1 segments in contour k
+    parent        C       u32    0, or zz(k - parent[k])     0 = the frame (parent -1)
+    points        6 S     u32    zz(dx), zz(dy), ...         see "Points"
+    cap_band      K       u16    cap_band[i]                 0 .. L
+    cap_contour   K       u32    zz(cc[i] - cc[i-1])         cap_contour, cc[-1] = -1
+    cap_xy        2 K     u32    zz(x), zz(y), ...           absolute, in 1/64 px
+    cap_value     K       u32    zz(v)                       in 1/64 grey level
+    border        ceil(S/8) bytes, not a column              see "Border"
+
+A channel's raw size is therefore exactly 10 C + 24 S + 18 K + ceil(S / 8) bytes and
+``raw_size`` must equal the sum over the channels.
+
+Points: contour k's chain has 1 + 3 n[k] control points P0, C0a, C0b, P1, ..., Pn and is
+closed (Pn == P0), so the last point is not stored; the other 3 n[k] are, as integers on the
+1/64-pixel grid (``round(x * 64)``). The first is absolute; each of the others is the
+difference from the point before it in the same chain. The values of all chains, (x, y)
+pairs in chain order, make one column of 6 S values. Consecutive differences compressed
+best of the layouts measured (anchor-relative handles, handles predicted by mirroring, and
+separate x and y columns were 1-8 % larger).
+
+Border: the flag of segment s (segments of all contours, in order) is bit ``s % 8`` (least
+significant first) of byte ``s // 8``; the padding bits of the last byte are zero.
+
+Parent: ``k - parent[k]`` is never 0 (a contour is not its own parent), which frees 0 for the
+frame.
+
+Precision
+---------
+The writer rounds control points and cap positions to the nearest 1/64 pixel and cap values
+to the nearest 1/64 grey level (halves to even); levels are float64, exact. So
+``loads(dumps(vi))`` equals ``vi`` exactly (``VectorImage.equals``) when vi's coordinates and
+cap values are already on those grids, which the encoder guarantees, and otherwise equals vi
+so rounded (at most 1/128 px and 1/128 grey level away; the encoder's error ribbons are at
+least 0.05 px wide). ``loads`` returns canonical dtypes: float64 levels, points, cap_xy and
+cap_value; int32 contour_level, parent, cap_band and cap_contour; int64 offsets; bool border.
+
+Validation
+----------
+Never trust a file. ``loads`` rejects with a FormatError (a LimitError for a size over a
+limit) whose one-line message says what is wrong: bad magic; truncation or trailing bytes;
+header or payload checksum mismatch; unknown version, reserved bits, compression, quanta,
+colour, depth or channel layout; a count over its limit or not matching the payload size;
+levels not finite and strictly increasing; a payload that does not decompress to exactly
+raw_size bytes; a contour level outside [0, L); segment counts that do not add up to S; a
+parent outside [-1, C) or parents that form a cycle; a cap band outside [0, L], a cap
+contour outside [-1, C); a coordinate or cap value beyond its limit; non-zero padding bits.
+All header checks come before the payload is decompressed, so the work on any file is
+bounded by its size. CRC-32 catches every error burst of up to 32 bits, so any corrupted
+byte is reported; the checks behind it make crafted files safe too.
+
+Limits, with their reasons
+--------------------------
+MAX_WIDTH = MAX_HEIGHT = 2**20
+    2**20 px a side is far beyond any camera; with control points allowed well outside the
+    frame (COORD_LIMIT), every coordinate times 64 still fits in int32.
+MAX_LEVELS = 1024
+    Four levels per grey step of the 0..255 scale: finer levels carry no information an
+    8-bit-scale rendering can show, and the level list (8 KiB a channel) stays a small part
+    of a header that is read on its own.
+MAX_CHANNELS = 4
+    Y, U, V and alpha.
+MAX_META_BYTES = 65536
+    meta describes the file (source, options); it is not image data, and it sits in the
+    header, which ``read_info`` reads whole.
+MAX_SEGMENTS = MAX_CAPS = 2**28 per channel
+    Over 6 GB of raw payload, far beyond what a 100-megapixel photograph
+    (imageio.MAX_INPUT_PIXELS) yields; it keeps every count and index inside the u32 fields
+    and every running sum of coordinates inside int64 (3 S * 2**31 < 2**63).
+COORD_LIMIT = 2**30 (in 1/64 px: |coordinate| < 2**24 px)
+    Bezier control points may lie outside the canvas, but not absurdly far (16 times
+    MAX_WIDTH); differences of two coordinates then fit a zigzagged u32.
+CAP_VALUE_LIMIT = 2**30 (in 1/64 grey level: |value| < 2**24)
+    Cap values live on the 0..255 scale with some overshoot; beyond this is garbage.
+MAX_EXPANSION = 64, EXPANSION_SLACK = 1 MiB
+    raw_size <= 64 * payload_size + 1 MiB. Photograph payloads compress about 3.5:1, so
+    this never binds them, but it bounds decoding work and memory by the file's size: a
+    small file cannot be a decompression bomb.
+MAX_HEADER_BYTES
+    The largest header the limits above allow (about 96 KiB).
+"""
+
+from __future__ import annotations
+
+import json
+import lzma
+import os
+import struct
+import zlib
+
+import numpy as np
+
+from ..errors import FormatError, LimitError
+from ..imageio import atomic_write_bytes
+from ..model import Channel, VectorImage
+
+# ---- magic numbers: every constant of the format, in one place ----------------------------
+
+MAGIC = b"\x89ISOPH\r\n"
+FORMAT_VERSION = 1
+QUANT = 64  # coordinates in 1/QUANT source pixel, cap values in 1/QUANT grey level
+
+COLOUR_CODES = {"grey": 0, "yuv": 1}
+COLOUR_NAMES = {v: k for k, v in COLOUR_CODES.items()}
+SOURCE_DEPTHS = (8, 16)
+# The channel layouts of the data model, in its canonical order.
+CHANNEL_LAYOUTS = {
+    "grey": (("Y",), ("Y", "A")),
+    "yuv": (("Y", "U", "V"), ("Y", "U", "V", "A")),
+}
+
+COMPRESSION_STORED = 0
+COMPRESSION_ZLIB = 1
+COMPRESSION_LZMA = 2
+COMPRESSION_CODES = {"none": COMPRESSION_STORED, "zlib": COMPRESSION_ZLIB, "lzma": COMPRESSION_LZMA}
+COMPRESSION_NAMES = {v: k for k, v in COMPRESSION_CODES.items()}
+DEFAULT_COMPRESSION = "zlib"
+ZLIB_LEVEL = 6
+LZMA_DICT_SIZE = 1 << 23  # 8 MiB
+LZMA_PRESET = 6
+_LZMA_WRITE_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": LZMA_PRESET, "dict_size": LZMA_DICT_SIZE}]
+_LZMA_READ_FILTERS = [{"id": lzma.FILTER_LZMA2, "dict_size": LZMA_DICT_SIZE}]
+
+# ---- limits (their reasons are in the module docstring) -----------------------------------
+
+MAX_WIDTH = 1 << 20
+MAX_HEIGHT = 1 << 20
+MAX_LEVELS = 1024
+MAX_CHANNELS = 4
+MAX_META_BYTES = 1 << 16
+MAX_SEGMENTS = 1 << 28
+MAX_CAPS = 1 << 28
+COORD_LIMIT = 1 << 30  # exclusive, in 1/QUANT px
+CAP_VALUE_LIMIT = 1 << 30  # exclusive, in 1/QUANT grey level
+MAX_EXPANSION = 64
+EXPANSION_SLACK = 1 << 20
+
+# ---- byte layout ---------------------------------------------------------------------------
+
+_PREAMBLE = struct.Struct("<8sHHI")  # magic, version, reserved, header_size
+_FIXED = struct.Struct("<IIBBBBHHQQII")  # width .. meta_size: offsets 16 .. 56
+_CHANNEL = struct.Struct("<cHIII")  # name, n_levels, n_contours, n_segments, n_caps
+_CRC = struct.Struct("<I")
+PREAMBLE_BYTES = _PREAMBLE.size  # 16
+_MIN_HEADER_BYTES = PREAMBLE_BYTES + _FIXED.size + _CHANNEL.size + _CRC.size
+MAX_HEADER_BYTES = (
+    PREAMBLE_BYTES + _FIXED.size + MAX_META_BYTES
+    + MAX_CHANNELS * (_CHANNEL.size + 8 * MAX_LEVELS) + _CRC.size
+)
+
+__all__ = [
+    "dumps", "loads", "save", "load", "read_info",
+    "MAGIC", "FORMAT_VERSION", "QUANT", "DEFAULT_COMPRESSION",
+    "MAX_WIDTH", "MAX_HEIGHT", "MAX_LEVELS", "MAX_CHANNELS", "MAX_META_BYTES",
+    "MAX_SEGMENTS", "MAX_CAPS", "COORD_LIMIT", "CAP_VALUE_LIMIT",
+    "MAX_EXPANSION", "EXPANSION_SLACK", "MAX_HEADER_BYTES",
+]
+
+
+# =============================================================================================
+# Public API
+# =============================================================================================
+
+
+def dumps(vi: VectorImage, compression: str = DEFAULT_COMPRESSION) -> bytes:
+    """Serialise a VectorImage to .isoph bytes.
+
+    Parameters
+    ----------
+    vi : VectorImage
+    compression : {"zlib", "lzma", "none"}
+        "zlib" (the default) is fast both ways; "lzma" is 3-7 % smaller and 10 times slower.
+
+    Returns
+    -------
+    bytes
+        Deterministic: the same image (with the same zlib/liblzma) always gives the same
+        bytes. Coordinates and cap values are rounded to the 1/64 grids (module docstring).
+
+    Raises
+    ------
+    ValueError
+        ``vi`` breaks the data model (unsorted levels, an open chain, cyclic parents, ...)
+        or its meta cannot be written as JSON.
+    LimitError
+        A size, coordinate or cap value exceeds a limit of the format.
+    """
+    if compression not in COMPRESSION_CODES:
+        raise ValueError(f"compression must be one of {', '.join(COMPRESSION_CODES)}, got {compression!r}")
+    try:
+        return _dumps(vi, COMPRESSION_CODES[compression])
+    except FormatError as e:
+        raise ValueError(f"cannot write .isoph: {e}") from None
+
+
+def loads(data) -> VectorImage:
+    """Parse .isoph bytes (bytes, bytearray or memoryview) into a VectorImage.
+
+    Raises FormatError, or LimitError for a declared size over a limit, for anything that is
+    not a valid .isoph file; never another exception type for bad data.
+    """
+    buf = bytes(data)
+    try:
+        return _loads(buf)
+    except (FormatError, LimitError):
+        raise
+    except (ValueError, IndexError, OverflowError, struct.error, RecursionError) as e:
+        # A last resort: every problem should meet its own check first (the tests say so).
+        raise FormatError(f"malformed .isoph file ({type(e).__name__}: {e})") from None
+
+
+def save(vi: VectorImage, path, compression: str = DEFAULT_COMPRESSION) -> None:
+    """Write ``vi`` to ``path`` atomically (a temporary file renamed into place)."""
+    atomic_write_bytes(path, dumps(vi, compression=compression))
+
+
+def load(path) -> VectorImage:
+    """Read an .isoph file. FormatError (or LimitError) for unreadable or malformed files."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise FormatError(f"{os.fspath(path)}: cannot read: {e.strerror or e}") from None
+    try:
+        return loads(data)
+    except FormatError as e:
+        raise FormatError(f"{os.fspath(path)}: {e}") from None
+    except LimitError as e:
+        raise LimitError(f"{os.fspath(path)}: {e}") from None
+
+
+def read_info(path_or_bytes) -> dict:
+    """Describe an .isoph file from its header alone; the payload is not decompressed.
+
+    Parameters
+    ----------
+    path_or_bytes : str, os.PathLike, bytes, bytearray or memoryview
+
+    Returns
+    -------
+    dict
+        ``format_version``, ``width``, ``height``, ``colour``, ``source_depth``, ``bytes``
+        (the file size), ``compression`` ("none", "zlib" or "lzma"), ``meta`` (dict) and
+        ``channels``: a list of ``{"name", "levels" (list of float), "contours",
+        "segments", "caps"}``.
+
+    The header checksum is verified and the file size checked against the header, so a
+    truncated file is reported; the payload's checksum is ``load``'s business.
+    """
+    if isinstance(path_or_bytes, (bytes, bytearray, memoryview)):
+        head = bytes(path_or_bytes)
+        size = len(head)
+        where = ""
+    else:
+        where = f"{os.fspath(path_or_bytes)}: "
+        try:
+            with open(path_or_bytes, "rb") as f:
+                size = os.fstat(f.fileno()).st_size
+                head = f.read(PREAMBLE_BYTES)
+                if len(head) == PREAMBLE_BYTES and head[:8] == MAGIC:
+                    header_size = _PREAMBLE.unpack(head)[3]
+                    if header_size <= MAX_HEADER_BYTES:
+                        head += f.read(header_size - PREAMBLE_BYTES)
+        except OSError as e:
+            raise FormatError(f"{where}cannot read: {e.strerror or e}") from None
+    try:
+        h = _parse_header(head, size)
+    except FormatError as e:
+        raise FormatError(f"{where}{e}") from None
+    except LimitError as e:
+        raise LimitError(f"{where}{e}") from None
+    return {
+        "format_version": h.version,
+        "width": h.width,
+        "height": h.height,
+        "colour": h.colour,
+        "source_depth": h.source_depth,
+        "bytes": size,
+        "compression": COMPRESSION_NAMES[h.compression],
+        "meta": h.meta,
+        "channels": [
+            {
+                "name": c.name,
+                "levels": [float(v) for v in c.levels],
+                "contours": c.n_contours,
+                "segments": c.n_segments,
+                "caps": c.n_caps,
+            }
+            for c in h.channels
+        ],
+    }
+
+
+# =============================================================================================
+# Columns: zigzag and byte planes
+# =============================================================================================
+
+
+def _zigzag(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.int64)
+    return (v << 1) ^ (v >> 63)
+
+
+def _unzigzag(u: np.ndarray) -> np.ndarray:
+    u = np.asarray(u, dtype=np.int64)  # u32 values: no overflow
+    return (u >> 1) ^ -(u & 1)
+
+
+def _planes(values, width: int) -> bytes:
+    """A column as ``width`` byte planes, least significant first (values fit the width)."""
+    v = np.ascontiguousarray(values, dtype=np.int64).ravel().astype(f"<u{width}")
+    return v.view(np.uint8).reshape(-1, width).T.tobytes()
+
+
+class _Columns:
+    """Reads a channel's columns off the raw payload, in order."""
+
+    def __init__(self, raw: bytes):
+        self.buf = np.frombuffer(raw, dtype=np.uint8)
+        self.pos = 0
+
+    def take(self, n: int) -> np.ndarray:
+        if self.pos + n > self.buf.shape[0]:  # the header's raw_size check makes this moot
+            raise FormatError("payload ends inside a column")
+        out = self.buf[self.pos : self.pos + n]
+        self.pos += n
+        return out
+
+    def column(self, n: int, width: int) -> np.ndarray:
+        """n values of ``width`` bytes, as int64."""
+        planes = self.take(n * width).reshape(width, n)
+        return np.ascontiguousarray(planes.T).view(f"<u{width}").ravel().astype(np.int64)
+
+
+def _raw_channel_bytes(c: int, s: int, k: int) -> int:
+    """Bytes of one channel's raw payload (see the column table)."""
+    return 10 * c + 24 * s + 18 * k + (s + 7) // 8
+
+
+# =============================================================================================
+# Header
+# =============================================================================================
+
+
+class _ChannelInfo:
+    __slots__ = ("name", "levels", "n_contours", "n_segments", "n_caps")
+
+    def __init__(self, name, levels, n_contours, n_segments, n_caps):
+        self.name, self.levels = name, levels
+        self.n_contours, self.n_segments, self.n_caps = n_contours, n_segments, n_caps
+
+
+class _Header:
+    __slots__ = (
+        "version", "width", "height", "colour", "source_depth", "compression",
+        "payload_size", "raw_size", "payload_crc", "meta", "channels", "header_size",
+    )
+
+
+def _header_bytes(width, height, colour, depth, infos, compression, payload, raw_size, meta) -> bytes:
+    body = bytearray(
+        _FIXED.pack(
+            width, height, COLOUR_CODES[colour], depth, len(infos), compression, QUANT, QUANT,
+            len(payload), raw_size, zlib.crc32(payload), len(meta),
+        )
+    )
+    body += meta
+    for c in infos:
+        body += _CHANNEL.pack(c.name.encode("ascii"), len(c.levels), c.n_contours, c.n_segments, c.n_caps)
+        body += np.asarray(c.levels, dtype="<f8").tobytes()
+    header_size = PREAMBLE_BYTES + len(body) + _CRC.size
+    head = _PREAMBLE.pack(MAGIC, FORMAT_VERSION, 0, header_size) + bytes(body)
+    return head + _CRC.pack(zlib.crc32(head))
+
+
+def _unsupported(version: int) -> FormatError:
+    return FormatError(f"unsupported .isoph format version {version} (this reader knows version {FORMAT_VERSION})")
+
+
+def _parse_header(data: bytes, file_size: int) -> _Header:
+    """Parse and check the header at the start of ``data`` (which may be the whole file)."""
+    if len(data) < PREAMBLE_BYTES:
+        if MAGIC.startswith(data[:8]):
+            raise FormatError(f"truncated .isoph file: {file_size} bytes, shorter than the {PREAMBLE_BYTES}-byte preamble")
+        raise FormatError("not an .isoph file (bad magic bytes)")
+    magic, version, reserved, header_size = _PREAMBLE.unpack_from(data, 0)
+    if magic != MAGIC:
+        raise FormatError("not an .isoph file (bad magic bytes)")
+    if not _MIN_HEADER_BYTES <= header_size <= MAX_HEADER_BYTES:
+        if version > FORMAT_VERSION:  # a newer layout may well have a larger header
+            raise _unsupported(version)
+        raise FormatError(f"header size {header_size} is outside [{_MIN_HEADER_BYTES}, {MAX_HEADER_BYTES}] (corrupted preamble)")
+    if file_size < header_size or len(data) < header_size:
+        raise FormatError(f"truncated .isoph file: {file_size} bytes, the header alone declares {header_size}")
+    (stored_crc,) = _CRC.unpack_from(data, header_size - 4)
+    if zlib.crc32(data[: header_size - 4]) != stored_crc:
+        raise FormatError("header checksum mismatch (corrupted header)")
+    if version != FORMAT_VERSION:
+        raise _unsupported(version)
+    if reserved != 0:
+        raise FormatError(f"reserved preamble field is {reserved}, must be 0 in version {FORMAT_VERSION}")
+
+    end = header_size - 4
+    pos = PREAMBLE_BYTES
+
+    def take(size, what):
+        nonlocal pos
+        if pos + size > end:
+            raise FormatError(f"header too short for its {what}")
+        pos += size
+        return data[pos - size : pos]
+
+    (width, height, colour, depth, n_channels, compression, xy_quant, value_quant,
+     payload_size, raw_size, payload_crc, meta_size) = _FIXED.unpack(take(_FIXED.size, "fixed fields"))
+    h = _Header()
+    h.version, h.header_size = version, header_size
+    if width < 1 or height < 1:
+        raise FormatError(f"image size {width} x {height} is empty")
+    if width > MAX_WIDTH or height > MAX_HEIGHT:
+        raise LimitError(f"image size {width} x {height} exceeds the {MAX_WIDTH} x {MAX_HEIGHT} limit")
+    h.width, h.height = width, height
+    if colour not in COLOUR_NAMES:
+        raise FormatError(f"unknown colour code {colour} (0 = grey, 1 = yuv)")
+    h.colour = COLOUR_NAMES[colour]
+    if depth not in SOURCE_DEPTHS:
+        raise FormatError(f"source depth {depth} is not 8 or 16")
+    h.source_depth = depth
+    if not 1 <= n_channels <= MAX_CHANNELS:
+        raise FormatError(f"channel count {n_channels} is outside [1, {MAX_CHANNELS}]")
+    if compression not in COMPRESSION_NAMES:
+        raise FormatError(f"unknown compression code {compression} (0 = stored, 1 = zlib, 2 = lzma)")
+    h.compression = compression
+    if xy_quant != QUANT or value_quant != QUANT:
+        raise FormatError(f"quanta {xy_quant}/{value_quant} are not {QUANT}/{QUANT} as version {FORMAT_VERSION} requires")
+    if meta_size > MAX_META_BYTES:
+        raise LimitError(f"meta of {meta_size} bytes exceeds the {MAX_META_BYTES}-byte limit")
+    h.meta = _parse_meta(take(meta_size, "meta"))
+
+    channels = []
+    for i in range(n_channels):
+        name, n_levels, n_contours, n_segments, n_caps = _CHANNEL.unpack(take(_CHANNEL.size, f"channel {i} summary"))
+        label = name.decode("latin-1")
+        if n_levels > MAX_LEVELS:
+            raise LimitError(f"channel {label}: {n_levels} levels exceed the limit of {MAX_LEVELS}")
+        if n_segments > MAX_SEGMENTS:
+            raise LimitError(f"channel {label}: {n_segments} segments exceed the limit of {MAX_SEGMENTS}")
+        if n_caps > MAX_CAPS:
+            raise LimitError(f"channel {label}: {n_caps} caps exceed the limit of {MAX_CAPS}")
+        if n_contours > n_segments:
+            raise FormatError(f"channel {label}: {n_contours} contours but only {n_segments} segments")
+        if n_contours > 0 and n_levels == 0:
+            raise FormatError(f"channel {label}: {n_contours} contours but no levels")
+        levels = np.frombuffer(take(8 * n_levels, f"channel {label} levels"), dtype="<f8").astype(np.float64)
+        _check_levels(levels, label)
+        channels.append(_ChannelInfo(label, levels, n_contours, n_segments, n_caps))
+    if pos != end:
+        raise FormatError(f"header has {end - pos} unexpected byte(s) after the channel summaries")
+    names = tuple(c.name for c in channels)
+    if names not in CHANNEL_LAYOUTS[h.colour]:
+        raise FormatError(f"channels {','.join(names)} do not fit colour {h.colour!r}")
+    h.channels = channels
+
+    # The counts fix the raw size; the raw size must be plausible for the stored size, and
+    # the stored size must be what the file holds.
+    expected_raw = sum(_raw_channel_bytes(c.n_contours, c.n_segments, c.n_caps) for c in channels)
+    if raw_size != expected_raw:
+        raise FormatError(f"raw payload size {raw_size} does not match the {expected_raw} bytes the counts need")
+    if raw_size > MAX_EXPANSION * payload_size + EXPANSION_SLACK:
+        raise FormatError(f"payload of {payload_size} bytes declares {raw_size} raw bytes, over the {MAX_EXPANSION}:1 limit")
+    if compression == COMPRESSION_STORED and payload_size != raw_size:
+        raise FormatError(f"stored payload of {payload_size} bytes but raw size {raw_size}")
+    expected = header_size + payload_size
+    if file_size < expected:
+        raise FormatError(f"truncated .isoph file: {file_size} bytes, the header declares {expected}")
+    if file_size > expected:
+        raise FormatError(f"{file_size - expected} unexpected byte(s) after the payload")
+    h.payload_size, h.raw_size, h.payload_crc = payload_size, raw_size, payload_crc
+    return h
+
+
+def _parse_meta(b: bytes) -> dict:
+    if not b:
+        return {}
+    try:
+        meta = json.loads(b.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as e:
+        raise FormatError(f"meta is not valid UTF-8 JSON ({type(e).__name__})") from None
+    if not isinstance(meta, dict):
+        raise FormatError(f"meta is a JSON {type(meta).__name__}, not an object")
+    return meta
+
+
+def _meta_bytes(meta) -> bytes:
+    if not meta:
+        return b""
+    if not isinstance(meta, dict):
+        raise FormatError(f"meta must be a dict, not {type(meta).__name__}")
+
+    def default(o):
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        raise TypeError(f"{type(o).__name__} is not JSON-serialisable")
+
+    try:
+        # Through JSON once first, so that the keys are strings (sortable) and values plain.
+        plain = json.loads(json.dumps(meta, allow_nan=False, default=default))
+        text = json.dumps(plain, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    except (TypeError, ValueError, RecursionError) as e:
+        raise FormatError(f"meta cannot be written as JSON: {e}") from None
+    b = text.encode("utf-8")
+    if len(b) > MAX_META_BYTES:
+        raise LimitError(f"meta of {len(b)} bytes as JSON exceeds the {MAX_META_BYTES}-byte limit")
+    return b
+
+
+# =============================================================================================
+# Checks shared by the writer and the reader
+# =============================================================================================
+
+
+def _check_levels(levels: np.ndarray, label: str) -> None:
+    if not np.all(np.isfinite(levels)):
+        raise FormatError(f"channel {label}: a level is not finite")
+    if levels.shape[0] > 1 and not np.all(levels[1:] > levels[:-1]):
+        raise FormatError(f"channel {label}: levels are not strictly increasing")
+
+
+def _check_range(a: np.ndarray, lo: int, hi: int, what: str) -> None:
+    """Every value of ``a`` in [lo, hi)."""
+    if a.size and (int(a.min()) < lo or int(a.max()) >= hi):
+        bad = int(np.flatnonzero((a < lo) | (a >= hi))[0])
+        raise FormatError(f"{what} {int(a[bad])} (entry {bad}) is outside [{lo}, {hi})")
+
+
+def _is_forest(parent: np.ndarray) -> bool:
+    """True when following parent links from every contour reaches -1 (no cycle). O(C).
+
+    Parents that all precede their children (a natural order for an encoder) make a forest
+    at once. Otherwise Kahn's algorithm peels contours without children until none is left;
+    the contours of a cycle never lose their last child. Iterative: deep nesting cannot
+    overflow a stack.
+    """
+    c = parent.shape[0]
+    if np.all(parent < np.arange(c)):
+        return True
+    children = np.bincount(parent[parent >= 0], minlength=c).tolist()
+    par = parent.tolist()
+    todo = [k for k in range(c) if children[k] == 0]
+    peeled = 0
+    while todo:
+        k = todo.pop()
+        peeled += 1
+        p = par[k]
+        if p >= 0:
+            children[p] -= 1
+            if children[p] == 0:
+                todo.append(p)
+    return peeled == c
+
+
+def _check_semantics(label, n_levels, contour_level, parent, cap_band, cap_contour) -> None:
+    c = contour_level.shape[0]
+    _check_range(contour_level, 0, n_levels, f"channel {label}: contour level")
+    _check_range(parent, -1, c, f"channel {label}: parent")
+    if not _is_forest(parent):
+        raise FormatError(f"channel {label}: parent links form a cycle")
+    _check_range(cap_band, 0, n_levels + 1, f"channel {label}: cap band")
+    _check_range(cap_contour, -1, c, f"channel {label}: cap contour")
+
+
+# =============================================================================================
+# Writing
+# =============================================================================================
+
+
+def _dumps(vi: VectorImage, compression: int) -> bytes:
+    if not isinstance(vi, VectorImage):
+        raise FormatError(f"expected a VectorImage, got {type(vi).__name__}")
+    width, height = int(vi.width), int(vi.height)
+    if width < 1 or height < 1:
+        raise FormatError(f"image size {width} x {height} is empty")
+    if width > MAX_WIDTH or height > MAX_HEIGHT:
+        raise LimitError(f"image size {width} x {height} exceeds the {MAX_WIDTH} x {MAX_HEIGHT} limit")
+    if vi.colour not in COLOUR_CODES:
+        raise FormatError(f"unknown colour {vi.colour!r} (grey or yuv)")
+    if vi.source_depth not in SOURCE_DEPTHS:
+        raise FormatError(f"source depth {vi.source_depth} is not 8 or 16")
+    names = tuple(getattr(ch, "name", None) for ch in vi.channels)
+    if names not in CHANNEL_LAYOUTS[vi.colour]:
+        raise FormatError(f"channels {names} do not fit colour {vi.colour!r}")
+    meta = _meta_bytes(vi.meta)
+
+    infos, parts = [], []
+    for ch in vi.channels:
+        info, raw = _encode_channel(ch)
+        infos.append(info)
+        parts.append(raw)
+    raw = b"".join(parts)
+
+    payload = raw
+    if compression == COMPRESSION_ZLIB:
+        payload = zlib.compress(raw, ZLIB_LEVEL)
+    elif compression == COMPRESSION_LZMA:
+        payload = lzma.compress(raw, format=lzma.FORMAT_RAW, filters=_LZMA_WRITE_FILTERS)
+    if len(raw) > MAX_EXPANSION * len(payload) + EXPANSION_SLACK:
+        # Absurdly repetitive contours: readers refuse such ratios (decompression bombs).
+        compression, payload = COMPRESSION_STORED, raw
+    head = _header_bytes(width, height, vi.colour, int(vi.source_depth), infos, compression,
+                         payload, len(raw), meta)
+    return head + payload
+
+
+def _encode_channel(ch: Channel):
+    """Check one channel against the data model; return (its summary, its raw columns)."""
+    label = ch.name
+    levels = np.asarray(ch.levels, dtype=np.float64)
+    if levels.ndim != 1:
+        raise FormatError(f"channel {label}: levels must be 1-D")
+    if levels.shape[0] > MAX_LEVELS:
+        raise LimitError(f"channel {label}: {levels.shape[0]} levels exceed the limit of {MAX_LEVELS}")
+    _check_levels(levels, label)
+
+    level = _int_array(ch.contour_level, label, "contour_level")
+    c = level.shape[0]
+    offsets = _int_array(ch.offsets, label, "offsets")
+    points = np.asarray(ch.points, dtype=np.float64)
+    if offsets.shape[0] != c + 1 or offsets[0] != 0:
+        raise FormatError(f"channel {label}: offsets must have C + 1 = {c + 1} entries, starting at 0")
+    if points.ndim != 2 or points.shape[1] != 2 or offsets[-1] != points.shape[0]:
+        raise FormatError(f"channel {label}: points must be (offsets[-1], 2)")
+    sizes = np.diff(offsets)
+    if c and (sizes.min() < 4 or np.any((sizes - 1) % 3)):
+        raise FormatError(f"channel {label}: every chain must have 1 + 3n points, n >= 1")
+    nseg = (sizes - 1) // 3
+    s = int(nseg.sum())
+    if s > MAX_SEGMENTS:
+        raise LimitError(f"channel {label}: {s} segments exceed the limit of {MAX_SEGMENTS}")
+    border = np.asarray(ch.border)
+    if border.shape != (s,):
+        raise FormatError(f"channel {label}: border must have one flag per segment ({s})")
+    parent = _int_array(ch.parent, label, "parent")
+    if parent.shape[0] != c:
+        raise FormatError(f"channel {label}: parent must have one entry per contour")
+    cap_band = _int_array(ch.cap_band, label, "cap_band")
+    k = cap_band.shape[0]
+    if k > MAX_CAPS:
+        raise LimitError(f"channel {label}: {k} caps exceed the limit of {MAX_CAPS}")
+    cap_contour = _int_array(ch.cap_contour, label, "cap_contour")
+    cap_xy = np.asarray(ch.cap_xy, dtype=np.float64)
+    cap_value = np.asarray(ch.cap_value, dtype=np.float64)
+    if cap_contour.shape != (k,) or cap_xy.shape != (k, 2) or cap_value.shape != (k,):
+        raise FormatError(f"channel {label}: cap arrays must all have K = {k} entries")
+    _check_semantics(label, levels.shape[0], level, parent, cap_band, cap_contour)
+
+    q = _quantise(points, COORD_LIMIT, f"channel {label}: a control point")
+    if c and not np.array_equal(q[offsets[:-1]], q[offsets[1:] - 1]):
+        bad = int(np.flatnonzero(np.any(q[offsets[:-1]] != q[offsets[1:] - 1], axis=1))[0])
+        raise FormatError(f"channel {label}: contour {bad} is not closed (last point != first)")
+    cq = _quantise(cap_xy, COORD_LIMIT, f"channel {label}: a cap position")
+    vq = _quantise(cap_value, CAP_VALUE_LIMIT, f"channel {label}: a cap value")
+
+    # Points: drop each chain's closing point; the first absolute, then differences.
+    keep = np.ones(q.shape[0], bool)
+    keep[offsets[1:] - 1] = False
+    stored = q[keep]
+    d = np.empty_like(stored)
+    if stored.shape[0]:
+        d[0] = stored[0]
+        d[1:] = stored[1:] - stored[:-1]
+        starts = offsets[:-1] - np.arange(c)  # where the chains start among the stored points
+        d[starts] = stored[starts]
+    columns = [
+        _planes(_zigzag(np.diff(level, prepend=0)), 2),
+        _planes(nseg - 1, 4),
+        _planes(np.where(parent < 0, 0, _zigzag(np.arange(c) - parent)), 4),
+        _planes(_zigzag(d), 4),
+        _planes(cap_band, 2),
+        _planes(_zigzag(np.diff(cap_contour, prepend=-1)), 4),
+        _planes(_zigzag(cq), 4),
+        _planes(_zigzag(vq), 4),
+        np.packbits(border.astype(bool), bitorder="little").tobytes(),
+    ]
+    return _ChannelInfo(label, levels, c, s, k), b"".join(columns)
+
+
+def _int_array(a, label, what) -> np.ndarray:
+    a = np.asarray(a)
+    if a.ndim != 1 or (a.size and a.dtype.kind not in "iu"):
+        raise FormatError(f"channel {label}: {what} must be a 1-D integer array")
+    return a.astype(np.int64)
+
+
+def _quantise(a: np.ndarray, limit: int, what: str) -> np.ndarray:
+    """Round to the 1/QUANT grid (halves to even), as int64 within (-limit, limit)."""
+    if not np.all(np.isfinite(a)):
+        raise FormatError(f"{what} is not finite")
+    scaled = np.rint(a * QUANT)
+    if scaled.size and float(np.abs(scaled).max()) >= limit:
+        raise LimitError(f"{what} lies beyond the format's limit of +-{limit // QUANT}")
+    return scaled.astype(np.int64)
+
+
+# =============================================================================================
+# Reading
+# =============================================================================================
+
+
+def _loads(buf: bytes) -> VectorImage:
+    h = _parse_header(buf, len(buf))
+    payload = buf[h.header_size :]
+    if zlib.crc32(payload) != h.payload_crc:
+        raise FormatError("payload checksum mismatch (corrupted payload)")
+    cols = _Columns(_decompress(payload, h.compression, h.raw_size))
+    channels = tuple(_decode_channel(cols, info) for info in h.channels)
+    return VectorImage(
+        width=h.width, height=h.height, colour=h.colour, channels=channels,
+        source_depth=h.source_depth, meta=h.meta,
+    )
+
+
+def _decompress(payload: bytes, compression: int, raw_size: int) -> bytes:
+    if compression == COMPRESSION_STORED:
+        return payload
+    # Ask for one byte more than declared: a stream that yields it is longer than declared.
+    try:
+        if compression == COMPRESSION_ZLIB:
+            d = zlib.decompressobj()
+            raw = d.decompress(payload, raw_size + 1)
+            ended = d.eof and not d.unconsumed_tail and not d.unused_data
+        else:
+            d = lzma.LZMADecompressor(format=lzma.FORMAT_RAW, filters=_LZMA_READ_FILTERS)
+            raw = d.decompress(payload, raw_size + 1)
+            ended = d.eof and not d.unused_data
+    except (zlib.error, lzma.LZMAError) as e:
+        raise FormatError(f"payload does not decompress ({e})") from None
+    if len(raw) > raw_size:
+        raise FormatError(f"payload decompresses to more than the {raw_size} bytes the header declares")
+    if len(raw) < raw_size:
+        raise FormatError(f"payload decompresses to {len(raw)} bytes, the header declares {raw_size}")
+    if not ended:
+        raise FormatError("compressed payload does not end where the file ends")
+    return raw
+
+
+def _decode_channel(cols: _Columns, info: _ChannelInfo) -> Channel:
+    label, c, s, k = info.name, info.n_contours, info.n_segments, info.n_caps
+    level = np.cumsum(_unzigzag(cols.column(c, 2)))
+    nseg = cols.column(c, 4) + 1
+    pcode = cols.column(c, 4)
+    d = _unzigzag(cols.column(6 * s, 4)).reshape(-1, 2)  # |d| <= 2**31
+    cap_band = cols.column(k, 2)
+    cap_contour = np.cumsum(_unzigzag(cols.column(k, 4))) - 1
+    cq = _unzigzag(cols.column(2 * k, 4)).reshape(-1, 2)
+    vq = _unzigzag(cols.column(k, 4))
+    border_bits = np.unpackbits(cols.take((s + 7) // 8), bitorder="little")
+
+    if int(nseg.sum()) != s:
+        raise FormatError(f"channel {label}: contours have {int(nseg.sum())} segments, the header declares {s}")
+    parent = np.where(pcode == 0, -1, np.arange(c, dtype=np.int64) - _unzigzag(pcode))
+    _check_semantics(label, info.levels.shape[0], level, parent, cap_band, cap_contour)
+
+    # Points: running sums within each chain (3 S values of at most 2**31: no overflow).
+    n_stored = 3 * nseg
+    starts = np.zeros(c, np.int64)
+    np.cumsum(n_stored[:-1], out=starts[1:])
+    run = np.cumsum(d, axis=0)
+    before = np.zeros((c, 2), np.int64)  # the running sum just before each chain
+    before[1:] = run[starts[1:] - 1]
+    stored = run - np.repeat(before, n_stored, axis=0)
+    _check_limit(stored, COORD_LIMIT, f"channel {label}: a control point")
+    _check_limit(cq, COORD_LIMIT, f"channel {label}: a cap position")
+    _check_limit(vq, CAP_VALUE_LIMIT, f"channel {label}: a cap value")
+    offsets = np.zeros(c + 1, np.int64)
+    np.cumsum(n_stored + 1, out=offsets[1:])
+    q = np.empty((int(offsets[-1]), 2), np.int64)
+    keep = np.ones(q.shape[0], bool)
+    keep[offsets[1:] - 1] = False
+    q[keep] = stored
+    q[offsets[1:] - 1] = q[offsets[:-1]]  # close every chain
+
+    if np.any(border_bits[s:]):
+        raise FormatError(f"channel {label}: padding bits after the border flags are not zero")
+    return Channel(
+        name=label,
+        levels=info.levels.copy(),
+        contour_level=level.astype(np.int32),
+        offsets=offsets,
+        points=q.astype(np.float64) / QUANT,
+        border=border_bits[:s].astype(bool),
+        parent=parent.astype(np.int32),
+        cap_band=cap_band.astype(np.int32),
+        cap_contour=cap_contour.astype(np.int32),
+        cap_xy=cq.astype(np.float64) / QUANT,
+        cap_value=vq.astype(np.float64) / QUANT,
+    )
+
+
+def _check_limit(q: np.ndarray, limit: int, what: str) -> None:
+    if q.size and int(np.abs(q).max()) >= limit:
+        raise FormatError(f"{what} lies beyond the format's limit of +-{limit} (1/{QUANT} units)")

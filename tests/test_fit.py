@@ -1,0 +1,308 @@
+"""Tests of the Bezier chain fitter (encoder/fit.py, paper §3.3).
+
+Error bounds are checked with chain_distance (dense sampling of the curve), never with the
+fitter's own estimate.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from isophote._kernels.fit import fit_polyline_ref
+from isophote.encoder.fit import chain_distance, fit_many, fit_polyline
+
+# ---------------------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------------------
+
+
+def n_segments(chain):
+    return (len(chain) - 1) // 3
+
+
+def sample_chain(chain, per_segment=100):
+    """(m, per_segment + 1, 2) points of each segment at uniform parameters."""
+    m = n_segments(chain)
+    t = np.linspace(0.0, 1.0, per_segment + 1)[None, :, None]
+    b = np.stack([chain[3 * g : 3 * g + 4] for g in range(m)])[:, :, None, :]
+    s = 1.0 - t
+    return s**3 * b[:, 0] + 3 * s**2 * t * b[:, 1] + 3 * s * t**2 * b[:, 2] + t**3 * b[:, 3]
+
+
+def polyline_distance(x, poly):
+    """Distance from each point of x (k, 2) to the polyline poly (n, 2)."""
+    a, b = poly[:-1], poly[1:]
+    e = b - a
+    ll = np.sum(e * e, axis=1)
+    w = x[:, None, :] - a[None]
+    h = np.clip(np.sum(w * e[None], axis=2) / np.where(ll > 0, ll, 1.0), 0.0, 1.0)
+    d = w - h[..., None] * e[None]
+    return np.sqrt(np.min(np.sum(d * d, axis=2), axis=1))
+
+
+def joint_angles(chain, closed):
+    """Angle in degrees between incoming and outgoing handle at each joint (nan if a
+    handle has zero length); interior joints, then the closing one for closed chains."""
+    m = n_segments(chain)
+    idx = [3 * g for g in range(1, m)] + ([0] if closed else [])
+    out = []
+    for r in idx:
+        p = chain[r]
+        din = p - chain[r - 1] if r > 0 else p - chain[-2]
+        dout = chain[r + 1] - p
+        li, lo = np.hypot(*din), np.hypot(*dout)
+        if li == 0 or lo == 0:
+            out.append(np.nan)
+            continue
+        c = np.clip(din @ dout / (li * lo), -1.0, 1.0)
+        out.append(math.degrees(math.acos(c)))
+    return np.array(out)
+
+
+def check_chain(points, tol, closed, chain, bulge_eps=1e-3):
+    """The fitter's guarantees, checked independently."""
+    assert chain.dtype == np.float64 and chain.ndim == 2 and chain.shape[1] == 2
+    assert (len(chain) - 1) % 3 == 0 and len(chain) >= 4
+    assert np.all(np.isfinite(chain))
+    if closed:
+        assert np.array_equal(chain[-1], chain[0])
+        s = int(np.flatnonzero(np.all(points == chain[0], axis=1))[0])
+        q = np.concatenate([np.roll(points, -s, axis=0), points[s : s + 1]])
+        t = np.concatenate([np.roll(tol, -s), tol[s : s + 1]])
+    else:
+        assert np.array_equal(chain[0], points[0]) and np.array_equal(chain[-1], points[-1])
+        q, t = points, tol
+    # every point within its tolerance of the curve
+    d = chain_distance(chain, points)
+    assert np.all(d <= tol * (1 + 1e-9) + 1e-12), (d / tol).max()
+    # joints are input points, in order; each segment's curve stays within the largest
+    # tolerance of its span of the polyline. A joint on a run of repeated points may be any
+    # of them: take the span over the runs.
+    first, last = [0], [0]
+    for g in range(1, n_segments(chain) + 1):
+        hit = np.flatnonzero(np.all(q[first[-1] + 1 :] == chain[3 * g], axis=1))
+        assert len(hit), "joint is not an input point"
+        a = b = first[-1] + 1 + int(hit[0])
+        while b + 1 < len(q) and np.array_equal(q[b + 1], q[a]):
+            b += 1
+        first.append(a)
+        last.append(b)
+    assert last[-1] == len(q) - 1
+    curve = sample_chain(chain)
+    for g in range(n_segments(chain)):
+        i, j = first[g], last[g + 1]
+        dd = polyline_distance(curve[g], q[i : j + 1])
+        assert dd.max() <= t[i : j + 1].max() + bulge_eps, (g, dd.max(), t[i : j + 1].max())
+
+
+def circle(r, spacing, centre=(50.0, 40.0)):
+    n = int(round(2 * np.pi * r / spacing))
+    th = np.arange(n) * (2 * np.pi / n)
+    return np.stack([centre[0] + r * np.cos(th), centre[1] + r * np.sin(th)], axis=1)
+
+
+def random_curve(rng, closed):
+    """A smooth random curve sampled about every 0.5 px with a little noise, and smooth
+    per-point tolerances in 0.05..0.5 (what the isoline tracer gives)."""
+    n = int(rng.integers(5, 200))
+    if closed:
+        th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+        r = rng.uniform(1, 12) * (1 + sum(rng.normal(0, 0.15) * np.cos(k * th + rng.uniform(0, 6))
+                                          for k in range(1, 5)))
+        pts = np.stack([r * np.cos(th), r * np.sin(th)], axis=1)
+    else:
+        turn = np.cumsum(rng.normal(0, 0.15, n))
+        step = rng.uniform(0.2, 0.8, n)
+        pts = np.cumsum(np.stack([step * np.cos(turn), step * np.sin(turn)], axis=1), axis=0)
+    pts = pts + rng.normal(0, 0.02, pts.shape) + rng.uniform(0, 100, 2)
+    tol = np.clip(0.05 + 0.45 * np.abs(np.sin(np.linspace(0, rng.uniform(0, 6), n)
+                                              + rng.uniform(0, 6))) ** 3, 0.05, 0.5)
+    return pts, tol
+
+
+# ---------------------------------------------------------------------------------------
+# known answers
+# ---------------------------------------------------------------------------------------
+
+
+def test_circle_gives_few_segments_within_tolerance():
+    pts = circle(20.0, 0.5)
+    tol = np.full(len(pts), 0.05)
+    chain = fit_polyline(pts, tol, closed=True)
+    assert 3 <= n_segments(chain) <= 8  # a cubic spans 120 degrees of it within 0.03
+    check_chain(pts, tol, True, chain)
+    r = np.hypot(*(sample_chain(chain, 400).reshape(-1, 2) - (50.0, 40.0)).T)
+    assert np.all(np.abs(r - 20.0) <= 0.05 + 1e-3)
+
+
+def test_straight_line_is_one_segment():
+    pts = np.stack([np.linspace(3, 40, 100), np.linspace(-2, 7, 100)], axis=1)
+    tol = np.full(100, 0.05)
+    chain = fit_polyline(pts, tol, closed=False)
+    assert n_segments(chain) == 1
+    check_chain(pts, tol, False, chain)
+
+
+def test_exact_cubic_is_one_segment():
+    b = np.array([[0.0, 0.0], [10.0, 25.0], [30.0, -10.0], [40.0, 10.0]])
+    t = np.linspace(0, 1, 120)[:, None] ** 1.3  # not chord-length spaced
+    pts = (1 - t) ** 3 * b[0] + 3 * (1 - t) ** 2 * t * b[1] + 3 * (1 - t) * t**2 * b[2] + t**3 * b[3]
+    tol = np.full(len(pts), 0.05)
+    chain = fit_polyline(pts, tol, closed=False)
+    assert n_segments(chain) == 1
+    check_chain(pts, tol, False, chain)
+
+
+def test_two_points_give_the_straight_segment():
+    pts = np.array([[1.0, 2.0], [4.0, 8.0]])
+    chain = fit_polyline(pts, np.array([0.1, 0.1]), closed=False)
+    np.testing.assert_allclose(chain, [[1, 2], [2, 4], [3, 6], [4, 8]], rtol=0, atol=1e-12)
+    assert np.array_equal(chain[0], pts[0]) and np.array_equal(chain[-1], pts[1])
+
+
+def test_noisy_circle_more_tolerance_fewer_segments():
+    rng = np.random.default_rng(7)
+    pts = circle(15.0, 0.5)
+    pts = pts + rng.uniform(-0.04, 0.04, pts.shape)
+    counts = []
+    for t in (0.05, 0.2, 0.5, 1.0):
+        tol = np.full(len(pts), t)
+        chain = fit_polyline(pts, tol, closed=True)
+        check_chain(pts, tol, True, chain)
+        counts.append(n_segments(chain))
+    assert all(a >= b for a, b in zip(counts, counts[1:])), counts
+    assert counts[0] > counts[-1]
+
+
+# ---------------------------------------------------------------------------------------
+# degenerate input
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_duplicate_points_stay_finite(closed):
+    pts = np.array([[0, 0], [0, 0], [1, 0], [1, 0], [1, 0], [2, 1], [2, 1], [1, 2], [1, 2.0]])
+    tol = np.full(len(pts), 0.1)
+    chain = fit_polyline(pts, tol, closed)
+    check_chain(pts, tol, closed, chain)
+    same = np.zeros((6, 2)) + 3.0
+    chain = fit_polyline(same, np.full(6, 0.1), closed)
+    assert np.all(np.isfinite(chain))
+    np.testing.assert_allclose(chain, 3.0, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("pts", [
+    [[10.5, 10.0], [11.0, 10.5], [10.5, 11.0]],
+    [[10.5, 10.0], [11.0, 10.5], [10.5, 11.0], [10.0, 10.5]],
+    [[10.5, 10.2], [10.8, 10.5], [10.5, 10.8], [10.2, 10.5]],
+])
+def test_tiny_closed_loops(pts):
+    pts = np.array(pts)
+    for t in (0.05, 0.5):
+        tol = np.full(len(pts), t)
+        check_chain(pts, tol, True, fit_polyline(pts, tol, True))
+
+
+def test_bad_arguments_raise():
+    with pytest.raises(ValueError):
+        fit_polyline(np.zeros((2, 2)), np.ones(2), closed=True)
+    with pytest.raises(ValueError):
+        fit_polyline(np.zeros((1, 2)), np.ones(1), closed=False)
+    with pytest.raises(ValueError):
+        fit_polyline(np.zeros((3, 2)), np.array([1.0, 0.0, 1.0]), closed=False)
+    with pytest.raises(ValueError):
+        fit_polyline(np.array([[0, 0], [np.nan, 1]]), np.ones(2), closed=False)
+    with pytest.raises(ValueError):
+        fit_polyline(np.zeros((3, 2)), np.ones(3), closed=False, snap=90)
+    with pytest.raises(ValueError):
+        fit_many(np.zeros((4, 2)), np.ones(4), [0, 2, 3], [False, False])
+    with pytest.raises(ValueError):
+        fit_many(np.zeros((4, 2)), np.ones(4), [0, 4], [False, False])
+
+
+# ---------------------------------------------------------------------------------------
+# guarantees on random curves
+# ---------------------------------------------------------------------------------------
+
+
+def random_batch(seed, count):
+    rng = np.random.default_rng(seed)
+    polys = []
+    for _ in range(count):
+        closed = bool(rng.integers(0, 2))
+        pts, tol = random_curve(rng, closed)
+        polys.append((pts, tol, closed))
+    return polys
+
+
+@pytest.mark.parametrize("snap", [0.0, 20.0, 45.0])
+def test_random_curves_within_ribbon(snap):
+    for pts, tol, closed in random_batch(1, 40):
+        check_chain(pts, tol, closed, fit_polyline(pts, tol, closed, snap=snap))
+
+
+def test_snapping_aligns_joints_and_keeps_tolerance():
+    snapped = 0
+    for pts, tol, closed in random_batch(2, 40):
+        raw = fit_polyline(pts, tol, closed, snap=0.0)
+        chain = fit_polyline(pts, tol, closed, snap=20.0)
+        check_chain(pts, tol, closed, chain)
+        # snapping moves handles, never joints
+        assert chain.shape == raw.shape and np.array_equal(chain[::3], raw[::3])
+        a0, a1 = joint_angles(raw, closed), joint_angles(chain, closed)
+        for before, after in zip(a0, a1):
+            if before < 20.0 and not after == before:
+                assert after < 1e-5  # acos of a rounded 1.0
+                snapped += 1
+            elif not before < 20.0:
+                assert after == before or np.isnan(before)
+    assert snapped > 10
+
+
+def test_fit_many_equals_fit_polyline():
+    polys = random_batch(3, 30)
+    pts = np.concatenate([p for p, _, _ in polys])
+    tol = np.concatenate([t for _, t, _ in polys])
+    offsets = np.concatenate([[0], np.cumsum([len(p) for p, _, _ in polys])])
+    closed = np.array([c for _, _, c in polys])
+    chains, co = fit_many(pts, tol, offsets, closed)
+    assert co.dtype == np.int64 and co.shape == (len(polys) + 1,) and co[-1] == len(chains)
+    for k, (p, t, c) in enumerate(polys):
+        assert np.array_equal(chains[co[k] : co[k + 1]], fit_polyline(p, t, c))
+    empty, eo = fit_many(np.zeros((0, 2)), np.zeros(0), [0], np.zeros(0, bool))
+    assert empty.shape == (0, 2) and np.array_equal(eo, [0])
+
+
+def test_deterministic():
+    polys = random_batch(4, 10)
+    for p, t, c in polys:
+        assert fit_polyline(p, t, c).tobytes() == fit_polyline(p.copy(), t.copy(), c).tobytes()
+
+
+@pytest.mark.parametrize("snap", [0.0, 20.0])
+def test_kernel_matches_reference(snap):
+    cos_snap = math.cos(math.radians(snap)) if snap > 0 else 1.0
+    for p, t, c in random_batch(5, 12):
+        fast = fit_polyline(p, t, c, snap=snap)
+        ref = fit_polyline_ref(p, t, c, cos_snap)
+        assert fast.shape == ref.shape
+        np.testing.assert_allclose(fast, ref, rtol=1e-9, atol=1e-9)
+
+
+# ---------------------------------------------------------------------------------------
+# chain_distance
+# ---------------------------------------------------------------------------------------
+
+
+def test_chain_distance_known_values():
+    line = np.array([[0.0, 0.0], [10 / 3, 0.0], [20 / 3, 0.0], [10.0, 0.0]])
+    d = chain_distance(line, [[5.0, 3.0], [-4.0, 3.0], [10.0, 0.0], [2.345, -0.5]])
+    np.testing.assert_allclose(d, [3.0, 5.0, 0.0, 0.5], atol=1e-9)
+    # quarter circles (kappa = 0.5523) approximate radius 10 within 0.03 %
+    k = 0.5522847498 * 10
+    quarter = np.array([[10, 0], [10, k], [k, 10], [0, 10.0]])
+    th = np.linspace(0, np.pi / 2, 50)
+    on = np.stack([10 * np.cos(th), 10 * np.sin(th)], axis=1)
+    assert chain_distance(quarter, on).max() < 10 * 3e-4
+    np.testing.assert_allclose(chain_distance(quarter, 2 * on), 10.0, atol=10 * 3e-4)
