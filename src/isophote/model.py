@@ -21,6 +21,10 @@ Orientation
 Bands
     Band b of a channel holds values in [levels[b-1], levels[b]) with levels[-1] = -inf and
     levels[L] = +inf. Band 0 lies below every level; band L above every level.
+    ``base_band`` is the band of the root region (outside every contour): when the whole
+    image border lies above some levels, their contours would only run round the frame, so
+    they are not stored and the bands start from base_band instead
+    (band = base_band + sum of windings).
 
 Hierarchy (paper §4)
     ``parent[k]`` is the index of the innermost contour whose footprint contains contour k,
@@ -29,9 +33,14 @@ Hierarchy (paper §4)
 
 Caps
     A region bounded by contours of one level only (a peak or a pit, or any region a single
-    level closes against the border) cannot be interpolated between two levels; the encoder
-    annotates it with its extremum: ``cap_value`` at ``cap_xy`` in band ``cap_band``.
-    ``cap_contour`` is the region's outer contour (-1 for the root region).
+    level closes against the border) cannot be interpolated between two levels. Its profile
+    is C(d) = L + (cap_value - L) * min(1, d / min(d_max, CAP_RAMP)), where L is its level, d
+    the distance to its contour and d_max the largest such distance inside it: a ramp of at
+    most CAP_RAMP pixels from the level up (or down) to a plateau at cap_value, or a cone for
+    caps narrower than that. The encoder chooses cap_value by least squares over the region's
+    samples. ``cap_xy`` is the region's extremum sample (it identifies the region), in band
+    ``cap_band``; ``cap_contour`` is the region's outer contour (-1 for the root region).
+    A region with no contour at all is flat at cap_value.
 
 Storage
     A channel keeps its contours in flat arrays, not objects, so that a photograph's tens of
@@ -48,6 +57,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 CHANNEL_NAMES = ("Y", "U", "V", "A")
+CAP_RAMP = 2.0  # pixels: the longest ramp of a cap's profile (see Caps above)
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +85,8 @@ class Channel:
     cap_xy : (K, 2) float64 ndarray
     cap_value : (K,) float64 ndarray
         Cap annotations (see the module docstring).
+    base_band : int
+        Band of the root region (see the module docstring).
     """
 
     name: str
@@ -88,6 +100,7 @@ class Channel:
     cap_contour: np.ndarray
     cap_xy: np.ndarray
     cap_value: np.ndarray
+    base_band: int = 0
 
     @property
     def n_contours(self) -> int:
@@ -125,7 +138,7 @@ class Channel:
 
     def equals(self, other: "Channel") -> bool:
         """Exact equality of every field (used by round-trip tests)."""
-        if self.name != other.name:
+        if self.name != other.name or self.base_band != other.base_band:
             return False
         for f in (
             "levels", "contour_level", "offsets", "points", "border", "parent",
@@ -137,8 +150,9 @@ class Channel:
         return True
 
     @staticmethod
-    def empty(name: str, levels) -> "Channel":
+    def empty(name: str, levels, base_band: int = 0) -> "Channel":
         return Channel(
+            base_band=int(base_band),
             name=name,
             levels=np.asarray(levels, dtype=np.float64),
             contour_level=np.zeros(0, np.int32),

@@ -47,7 +47,7 @@ class EncodeOptions:
     min_tolerance: float = 0.05
     max_tolerance: float = 0.5
     carrato_p: float = 0.5
-    carrato_scale: float = 16.0
+    carrato_scale: float = 64.0
 
     def resolved(self) -> "EncodeOptions":
         """Fill the steps from the preset and validate."""

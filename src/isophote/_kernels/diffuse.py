@@ -2,18 +2,21 @@
 
 Node grid: node (i, j) sits at (j + 0.5, i + 0.5) in node units. For every node and each
 side (0 = lower, 1 = upper) the fields hold the nearest source: its position (sx, sy), the
-distance d to it (path length in the chosen metric) and its value v (the level, or a cap's
-extremum). d = inf where no source was found.
+isoline's unit tangent there (tx, ty), the distance d to it (path length in the chosen
+metric) and its value v (the level). d = inf where no source was found.
+
+A source is a crossing of the isoline with a node row or column; it stands for the piece
+of isoline around it, a segment of half-length HALF along the tangent, so that a point
+between two node rows measures its distance to the curve, not to the nearest crossing.
 
 Sources are the exact isoline crossings between neighbouring nodes (from the rasteriser).
 Propagation only passes between nodes of the same band (the paper's dist within R - S), in
 alternating forward and backward raster sweeps until nothing changes.
 
 Caps: a region (8-connected nodes of one band) with sources on one side only is a peak or a
-pit. Its missing side is modelled as a surface at the cap's extremum value lying at the
-region's largest distance from its contour, d_max: C = L + (v_cap - L) * d / d_max. A ridge
-thus keeps its value along its whole crest, and a peak at the border rises to the border.
-A region with no source at all takes the cap value everywhere.
+pit, rendered with the cap profile of model.py: C = L + (v_cap - L) * min(1, d / min(d_max,
+ramp)), d_max being the region's largest distance from its contour. A region with no source
+at all takes the cap value everywhere.
 
 Metrics (MODE_*):
   euclidean  the straight-line distance to the nearest source reached through the band
@@ -28,7 +31,9 @@ import numpy as np
 from numba import njit
 
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
-SX, SY, D, V = 0, 1, 2, 3
+SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
+NF = 6
+HALF = 0.75  # node units: covers the gap between crossings on consecutive rows up to 48 degrees
 
 _OFFS = {
     MODE_EUCLIDEAN: [(-1, -1), (-1, 0), (-1, 1), (0, -1)],
@@ -50,57 +55,82 @@ def metric(dx, dy, mode):
 
 
 @njit(cache=True, nogil=True)
-def _offer(F, s, i, j, sx, sy, d, v):
-    if d < F[s, D, i, j]:
-        F[s, SX, i, j] = sx
-        F[s, SY, i, j] = sy
-        F[s, D, i, j] = d
-        F[s, V, i, j] = v
-        return True
-    return False
+def seg_dist(px, py, sx, sy, tx, ty, mode):
+    """Distance from (px, py) to the source segment centred at (sx, sy) along (tx, ty)."""
+    dx = px - sx
+    dy = py - sy
+    along = dx * tx + dy * ty
+    if along > HALF:
+        along -= HALF
+    elif along < -HALF:
+        along += HALF
+    else:
+        along = 0.0
+    perp = dx * ty - dy * tx
+    # back to x/y components of the residual vector for the L1 metric
+    rx = along * tx + perp * ty
+    ry = along * ty - perp * tx
+    return metric(rx, ry, mode)
 
 
 @njit(cache=True, nogil=True)
-def _offer_crossing(F, band, levels, i, j, sx, sy, d, going_up):
+def _offer_crossing(F, band, levels, i, j, sx, sy, tx, ty, going_up, mode):
     b = band[i, j]
     nl = levels.shape[0]
     if b < 0 or b > nl:
         return
     if going_up:
-        if b < nl:
-            _offer(F, 1, i, j, sx, sy, d, levels[b])
+        if b >= nl:
+            return
+        s, v = 1, levels[b]
     else:
-        if b >= 1:
-            _offer(F, 0, i, j, sx, sy, d, levels[b - 1])
+        if b < 1:
+            return
+        s, v = 0, levels[b - 1]
+    d = seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
+    if d < F[s, D, i, j]:
+        F[s, SX, i, j] = sx
+        F[s, SY, i, j] = sy
+        F[s, TX, i, j] = tx
+        F[s, TY, i, j] = ty
+        F[s, D, i, j] = d
+        F[s, V, i, j] = v
 
 
 @njit(cache=True, nogil=True)
-def seed(band, hfx, hfd, hlx, hld, vfx, vfd, vlx, vld, levels):
-    """Initial fields from the crossings (h*: per row, by gap; v*: per column, by gap)."""
+def _unit(a, b):
+    n = np.sqrt(a * a + b * b)
+    return a / n, b / n
+
+
+@njit(cache=True, nogil=True)
+def seed(band, H, Vc, levels, mode):
+    """Initial fields from the crossings: H = rasterise(...) crossing arrays of the rows,
+    Vc = those of the columns (from the transposed geometry), each (fx, fd, lx, ld, fs, ls)."""
+    hfx, hfd, hlx, hld, hfs, hls = H
+    vfx, vfd, vlx, vld, vfs, vls = Vc
     nr, nc = band.shape
-    F = np.empty((2, 4, nr, nc), np.float64)
+    F = np.empty((2, NF, nr, nc), np.float32)
+    F[:] = 0.0
     F[:, D] = np.inf
-    F[:, SX] = 0.0
-    F[:, SY] = 0.0
-    F[:, V] = 0.0
     for i in range(nr):
         yc = i + 0.5
         for j in range(nc):
             xc = j + 0.5
             if hfd[i, j + 1] != 0:  # nearest crossing on the right, moving right
-                x = hfx[i, j + 1]
-                _offer_crossing(F, band, levels, i, j, x, yc, x - xc, hfd[i, j + 1] > 0)
+                tx, ty = _unit(hfs[i, j + 1], 1.0)
+                _offer_crossing(F, band, levels, i, j, hfx[i, j + 1], yc, tx, ty, hfd[i, j + 1] > 0, mode)
             if hld[i, j] != 0:  # nearest crossing on the left, moving left
-                x = hlx[i, j]
-                _offer_crossing(F, band, levels, i, j, x, yc, xc - x, hld[i, j] < 0)
+                tx, ty = _unit(hls[i, j], 1.0)
+                _offer_crossing(F, band, levels, i, j, hlx[i, j], yc, tx, ty, hld[i, j] < 0, mode)
             # the column crossings come from the transposed (mirrored) geometry, whose winding
             # is the negated band: moving down, the band rises where their winding falls
             if vfd[j, i + 1] != 0:  # below, moving down
-                y = vfx[j, i + 1]
-                _offer_crossing(F, band, levels, i, j, xc, y, y - yc, vfd[j, i + 1] < 0)
+                tx, ty = _unit(1.0, vfs[j, i + 1])
+                _offer_crossing(F, band, levels, i, j, xc, vfx[j, i + 1], tx, ty, vfd[j, i + 1] < 0, mode)
             if vld[j, i] != 0:  # above, moving up
-                y = vlx[j, i]
-                _offer_crossing(F, band, levels, i, j, xc, y, yc - y, vld[j, i] > 0)
+                tx, ty = _unit(1.0, vls[j, i])
+                _offer_crossing(F, band, levels, i, j, xc, vlx[j, i], tx, ty, vld[j, i] > 0, mode)
     return F
 
 
@@ -125,17 +155,15 @@ def _sweep(F, band, offs, mode, forward):
                     dn = F[s, D, ii, jj]
                     if dn == np.inf:
                         continue
-                    sx = F[s, SX, ii, jj]
-                    sy = F[s, SY, ii, jj]
                     if mode == 0:
-                        cand = metric(j + 0.5 - sx, i + 0.5 - sy, 0)
+                        cand = seg_dist(j + 0.5, i + 0.5, F[s, SX, ii, jj], F[s, SY, ii, jj],
+                                        F[s, TX, ii, jj], F[s, TY, ii, jj], 0)
                     else:
                         cand = dn + metric(float(dj), float(di), mode)
-                    if cand < F[s, D, i, j] - 1e-12:
-                        F[s, SX, i, j] = sx
-                        F[s, SY, i, j] = sy
+                    if cand < F[s, D, i, j] * (1.0 - 1e-6):
+                        for f in range(NF):
+                            F[s, f, i, j] = F[s, f, ii, jj]
                         F[s, D, i, j] = cand
-                        F[s, V, i, j] = F[s, V, ii, jj]
                         changed = True
     return changed
 
@@ -249,11 +277,12 @@ def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
 
 
 @njit(cache=True, nogil=True)
-def evaluate(F, nband, labels, dmax, capv, tband, xs, ys, levels, mode, flat, out):
+def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, out):
     """Fill values at target samples.
 
     tband (n, m): band of each target sample; xs (m,), ys (n,): their positions in node units.
-    labels, dmax, capv: node regions and their cap data (label_nodes, region_caps).
+    labels, dmax, capv: node regions and their cap data (label_nodes, region_caps); ramp: the
+    cap ramp in node units.
     out (n, m) float32 receives the values.
     """
     nr, nc = nband.shape
@@ -294,26 +323,38 @@ def evaluate(F, nband, labels, dmax, capv, tband, xs, ys, levels, mode, flat, ou
                     if i < 0 or i >= nr:
                         continue
                     for j in range(lo_j, hi_j + 1):
-                        if j < 0 or j >= nc or nband[i, j] != b:
+                        if j < 0 or j >= nc:
                             continue
-                        found = True
-                        dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
-                        if dn2 < reg_d:
-                            reg_d = dn2
-                            reg = labels[i, j]
-                        for s in range(2):
+                        bn = nband[i, j]
+                        if bn == b:
+                            found = True
+                            dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
+                            if dn2 < reg_d:
+                                reg_d = dn2
+                                reg = labels[i, j]
+                            s_lo, s_hi = 0, 2
+                        elif bn == b - 1:
+                            # a node just below: its upper isoline is this sample's lower one
+                            s_lo, s_hi = 1, 2
+                        elif bn == b + 1:
+                            # a node just above: its lower isoline is this sample's upper one
+                            s_lo, s_hi = 0, 1
+                        else:
+                            continue
+                        for s in range(s_lo, s_hi):
                             dn = F[s, D, i, j]
                             if dn == np.inf:
                                 continue
                             sx = F[s, SX, i, j]
                             sy = F[s, SY, i, j]
-                            if mode == 0:
-                                cand = metric(x - sx, y - sy, 0)
-                            else:
-                                cand = dn - metric(j + 0.5 - sx, i + 0.5 - sy, mode) + metric(x - sx, y - sy, mode)
-                                if cand < 0.0:
-                                    cand = 0.0
-                            if s == 0:
+                            tx = F[s, TX, i, j]
+                            ty = F[s, TY, i, j]
+                            cand = seg_dist(x, y, sx, sy, tx, ty, mode)
+                            if mode != 0 and bn == b:
+                                # the path to the node, with its last leg re-aimed at the sample
+                                cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
+                            side = s if bn == b else 1 - s
+                            if side == 0:
                                 if cand < best_d0:
                                     best_d0 = cand
                                     v0 = F[s, V, i, j]
@@ -321,7 +362,7 @@ def evaluate(F, nband, labels, dmax, capv, tband, xs, ys, levels, mode, flat, ou
                                 if cand < best_d1:
                                     best_d1 = cand
                                     v1 = F[s, V, i, j]
-                if found:
+                if found or (best_d0 < np.inf and best_d1 < np.inf):
                     break
             if best_d0 == np.inf or best_d1 == np.inf:
                 cv = capv[reg] if reg >= 0 else np.nan
@@ -335,7 +376,7 @@ def evaluate(F, nband, labels, dmax, capv, tband, xs, ys, levels, mode, flat, ou
                 if np.isnan(cv):
                     out[a, bcol] = 0.5 * (lvl + mid)
                     continue
-                dm = dmax[reg, s_other]
+                dm = min(dmax[reg, s_other], ramp)
                 f = 1.0 if dm <= 0.0 or d >= dm else d / dm
                 out[a, bcol] = lvl + (cv - lvl) * f
                 continue

@@ -18,9 +18,9 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    few steps where Schneider's alternation crawls. After every fit a Newton step moves each
    point's parameter towards its foot on the curve. The tests: every point k lies within
    tol[k] of the curve point B(u[k]) (an upper bound of its distance to the curve), and
-   every curve sample (at least two between consecutive parameters) lies within
-   max(tol[e], tol[e+1]) of some edge e of the span (so the curve cannot bulge between
-   points).
+   the whole curve lies within max(tol[e], tol[e+1]) of some edge e of the span (so it
+   cannot bulge between points): checked at B(u[k]) and at samples between, each against
+   its tolerance less a margin that bounds the curve's excursion between samples.
 3. G1 snapping: at each joint whose incoming and outgoing handles differ in direction by
    less than the threshold, both handles are rotated onto their length-weighted bisector
    (P - Cb + Ca - P) keeping their lengths; the change is kept only if both adjacent
@@ -48,10 +48,8 @@ GIVE_UP = (16.0, 4.0)
 # Weight of the tangential residual component in the Gauss-Newton steps (1 would be
 # Schneider's point distance, 0 pure tangent distance, which can be singular).
 TANGENTIAL = 0.01
-# Curve samples between two consecutive points, for the bulge test: two, plus one for every
-# SPACING tolerances of curve length (bounded by the control polygon) in the interval.
-SPACING = 8.0
-MAX_EXTRA_SAMPLES = 30
+# Most curve samples strictly between two consecutive points in the bulge test.
+MAX_SAMPLES = 32
 # Relative Tikhonov term pulling the inner controls towards the straight segment's thirds:
 # it makes spans with fewer than two inner points well posed and is negligible otherwise.
 RIDGE = 1e-6
@@ -81,7 +79,7 @@ def _seg_dist2(px, py, ax, ay, bx, by):
 
 
 @njit(cache=True, error_model="numpy")
-def _lsq(q, tol, i, j, u, c):
+def _lsq(q, w, i, j, u, c):
     """Least-squares inner controls of the span i..j for parameters u; writes c[0:4]."""
     p0x = q[i, 0]
     p0y = q[i, 1]
@@ -101,16 +99,16 @@ def _lsq(q, tol, i, j, u, c):
         b1 = 3.0 * s * s * t
         b2 = 3.0 * s * t * t
         b3 = t * t * t
-        w = 1.0 / (tol[k] * tol[k])
+        wk = w[k]
         rx = q[k, 0] - b0 * p0x - b3 * p3x
         ry = q[k, 1] - b0 * p0y - b3 * p3y
-        a11 += w * b1 * b1
-        a12 += w * b1 * b2
-        a22 += w * b2 * b2
-        r1x += w * b1 * rx
-        r1y += w * b1 * ry
-        r2x += w * b2 * rx
-        r2y += w * b2 * ry
+        a11 += wk * b1 * b1
+        a12 += wk * b1 * b2
+        a22 += wk * b2 * b2
+        r1x += wk * b1 * rx
+        r1y += wk * b1 * ry
+        r2x += wk * b2 * rx
+        r2y += wk * b2 * ry
     lam = RIDGE * (a11 + a22)
     if not lam > 0.0:
         lam = 1.0
@@ -128,9 +126,10 @@ def _lsq(q, tol, i, j, u, c):
 
 
 @njit(cache=True, error_model="numpy")
-def _tdm(q, tol, i, j, u, c):
+def _tdm(q, w, i, j, u, c, a):
     """One Gauss-Newton step of tangent distance minimisation for the inner controls c
-    (updated in place), linearised at the foot parameters u on the current curve."""
+    (updated in place), linearised at the foot parameters u on the current curve. a is a
+    (4, 5) scratch array for the normal equations."""
     p0x = q[i, 0]
     p0y = q[i, 1]
     p3x = q[j, 0]
@@ -174,28 +173,27 @@ def _tdm(q, tol, i, j, u, c):
         b1 = 3.0 * s * s * t
         b2 = 3.0 * s * t * t
         b3 = t * t * t
-        w = 1.0 / (tol[k] * tol[k])
+        wk = w[k]
         rx = q[k, 0] - b0 * p0x - b3 * p3x
         ry = q[k, 1] - b0 * p0y - b3 * p3y
-        f = w * b1 * b1
+        f = wk * b1 * b1
         s11xx += f * mxx
         s11xy += f * mxy
         s11yy += f * myy
-        f = w * b1 * b2
+        f = wk * b1 * b2
         s12xx += f * mxx
         s12xy += f * mxy
         s12yy += f * myy
-        f = w * b2 * b2
+        f = wk * b2 * b2
         s22xx += f * mxx
         s22xy += f * mxy
         s22yy += f * myy
-        mrx = w * (mxx * rx + mxy * ry)
-        mry = w * (mxy * rx + myy * ry)
+        mrx = wk * (mxx * rx + mxy * ry)
+        mry = wk * (mxy * rx + myy * ry)
         r1x += b1 * mrx
         r1y += b1 * mry
         r2x += b2 * mrx
         r2y += b2 * mry
-    a = np.empty((4, 5))
     a[0, 0] = s11xx
     a[0, 1] = s11xy
     a[0, 2] = s12xx
@@ -240,34 +238,11 @@ def _solve4(a, x):
 
 
 @njit(cache=True, error_model="numpy")
-def _point_err(q, tol, i, j, u, c, limit):
-    """Largest (|B(u[k]) - q[k]| / tol[k])^2 over the inner points, stopping past limit."""
-    p0x = q[i, 0]
-    p0y = q[i, 1]
-    p3x = q[j, 0]
-    p3y = q[j, 1]
-    worst = 0.0
-    for k in range(i + 1, j):
-        t = u[k]
-        s = 1.0 - t
-        b0 = s * s * s
-        b1 = 3.0 * s * s * t
-        b2 = 3.0 * s * t * t
-        b3 = t * t * t
-        dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
-        dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
-        e = (dx * dx + dy * dy) / (tol[k] * tol[k])
-        if e > worst:
-            worst = e
-            if e > limit:
-                break
-    return worst
-
-
-@njit(cache=True, error_model="numpy")
-def _newton(q, i, j, u, c):
-    """One Newton step of every inner parameter towards its point's projection, then
-    clamp to [0, 1] and make the parameters non-decreasing."""
+def _newton(q, w, i, j, u, c, limit):
+    """One Newton step of every inner parameter towards its point's foot on the curve,
+    clamped to [0, 1] and to the previous parameter (parameters never decrease). Returns
+    the largest (|B(u[k]) - q[k]| / tol[k])^2 at the new parameters, stopping early (with
+    the rest of u untouched) once it exceeds limit."""
     p0x = q[i, 0]
     p0y = q[i, 1]
     p3x = q[j, 0]
@@ -283,6 +258,7 @@ def _newton(q, i, j, u, c):
     e0y = d1y - d0y
     e1x = d2x - d1x
     e1y = d2y - d1y
+    worst = 0.0
     for k in range(i + 1, j):
         t = u[k]
         s = 1.0 - t
@@ -304,22 +280,36 @@ def _newton(q, i, j, u, c):
                 t = 0.0
             elif t > 1.0:
                 t = 1.0
-            u[k] = t
-    for k in range(i + 1, j):
-        if u[k] < u[k - 1]:
-            u[k] = u[k - 1]
+        if t < u[k - 1]:
+            t = u[k - 1]
+        u[k] = t
+        s = 1.0 - t
+        b0 = s * s * s
+        b1 = 3.0 * s * s * t
+        b2 = 3.0 * s * t * t
+        b3 = t * t * t
+        dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
+        dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
+        e = (dx * dx + dy * dy) * w[k]
+        if e > worst:
+            worst = e
+            if e > limit:
+                break
+    return worst
 
 
 @njit(cache=True, error_model="numpy")
-def _near_edge(q, tol, i, j, k, x, y):
-    """Is (x, y) within max(tol[e], tol[e+1]) of some edge e of the span i..j? Edges are
-    tried outwards from k, the edge whose stretch of curve the point belongs to."""
+def _near_edge(q, tol, i, j, k, x, y, margin):
+    """Is (x, y) within max(tol[e], tol[e+1]) - margin of some edge e of the span i..j?
+    Edges are tried outwards from k, the edge whose stretch of curve the point is on."""
     for r in range(j - i):
         for e in (k - r, k + r):
             if e < i or e >= j or (r == 0 and e != k - r):
                 continue
-            te = max(tol[e], tol[e + 1])
-            if _seg_dist2(x, y, q[e, 0], q[e, 1], q[e + 1, 0], q[e + 1, 1]) <= te * te:
+            lim = max(tol[e], tol[e + 1]) - margin
+            if lim >= 0.0 and _seg_dist2(
+                x, y, q[e, 0], q[e, 1], q[e + 1, 0], q[e + 1, 1]
+            ) <= lim * lim:
                 return True
         if k - r < i and k + r >= j - 1:
             break
@@ -328,31 +318,34 @@ def _near_edge(q, tol, i, j, k, x, y):
 
 @njit(cache=True, error_model="numpy")
 def _bulge_ok(q, tol, i, j, u, c):
-    """True when the curve, sampled between consecutive parameters, stays inside the
-    ribbon of the span's edges (see _near_edge)."""
+    """True when the whole curve stays inside the ribbon of the span's edges: samples at
+    every u[k] and between them must lie within their edge's tolerance less a margin that
+    bounds how far the curve strays from the chord between neighbouring samples."""
     p0x = q[i, 0]
     p0y = q[i, 1]
     p3x = q[j, 0]
     p3y = q[j, 1]
-    vx = c[0] - p0x
-    vy = c[1] - p0y
-    speed = vx * vx + vy * vy
-    vx = c[2] - c[0]
-    vy = c[3] - c[1]
-    speed = max(speed, vx * vx + vy * vy)
-    vx = p3x - c[2]
-    vy = p3y - c[3]
-    speed = 3.0 * math.sqrt(max(speed, vx * vx + vy * vy))
+    # |B''(t)| <= curv; between samples delta apart in t the curve is within
+    # curv * delta^2 / 8 of their chord, and the distance to an edge is convex along chords
+    ax = p0x - 2.0 * c[0] + c[2]
+    ay = p0y - 2.0 * c[1] + c[3]
+    bx = c[0] - 2.0 * c[2] + p3x
+    by = c[1] - 2.0 * c[3] + p3y
+    curv = 6.0 * math.sqrt(max(ax * ax + ay * ay, bx * bx + by * by))
+    prev = 0.0
     for k in range(i, j):
         tl = max(tol[k], tol[k + 1])
         du = u[k + 1] - u[k]
-        extra = speed * du / (SPACING * tl)
-        ns = 2
-        if extra >= MAX_EXTRA_SAMPLES:
-            ns += MAX_EXTRA_SAMPLES
-        else:
-            ns += int(extra)
-        for m in range(1, ns + 1):
+        # enough samples that the margin stays below tl / 8
+        need = du * math.sqrt(curv / tl)
+        ns = 1
+        if need >= MAX_SAMPLES:
+            ns = MAX_SAMPLES
+        elif need > 1.0:
+            ns = int(need)
+        delta = du / (ns + 1)
+        margin = curv * delta * delta / 8.0
+        for m in range(0 if k > i else 1, ns + 1):
             t = u[k] + du * m / (ns + 1)
             s = 1.0 - t
             b0 = s * s * s
@@ -361,8 +354,10 @@ def _bulge_ok(q, tol, i, j, u, c):
             b3 = t * t * t
             x = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x
             y = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y
-            if not _near_edge(q, tol, i, j, k, x, y):
+            mg = max(margin, prev) if m == 0 else margin
+            if not _near_edge(q, tol, i, j, k, x, y, mg):
                 return False
+        prev = margin
     return True
 
 
@@ -376,9 +371,9 @@ def _straight(q, i, j, c):
 
 
 @njit(cache=True, error_model="numpy")
-def _fit_span(q, tol, cum, i, j, u, c):
+def _fit_span(q, tol, w, cum, i, j, u, c, work):
     """Fit the span i..j; True when it passes (then c holds the controls, u[i..j] the
-    parameters)."""
+    parameters). work is a (4, 5) scratch array."""
     if j == i + 1:
         _straight(q, i, j, c)
         u[i] = 0.0
@@ -393,12 +388,11 @@ def _fit_span(q, tol, cum, i, j, u, c):
     u[j] = 1.0
     for it in range(ITERATIONS):
         if it == 0:
-            _lsq(q, tol, i, j, u, c)
+            _lsq(q, w, i, j, u, c)
         else:
-            _tdm(q, tol, i, j, u, c)
-        _newton(q, i, j, u, c)
+            _tdm(q, w, i, j, u, c, work)
         limit = GIVE_UP[it] * GIVE_UP[it] if it < len(GIVE_UP) else 1.0
-        worst = _point_err(q, tol, i, j, u, c, limit)
+        worst = _newton(q, w, i, j, u, c, limit)
         if worst <= 1.0 and _bulge_ok(q, tol, i, j, u, c):
             return True
         if worst > limit:
@@ -407,20 +401,21 @@ def _fit_span(q, tol, cum, i, j, u, c):
 
 
 @njit(cache=True, error_model="numpy")
-def _check_fixed(q, tol, i, j, u, c):
+def _check_fixed(q, tol, w, i, j, u, c):
     """Does the cubic with controls c still fit the span i..j? Reparameterises u first."""
     # a joint's point is shared by two segments: its parameter is 0 in one, 1 in the other
     u[i] = 0.0
     u[j] = 1.0
-    for _ in range(NEWTON_STEPS):
-        _newton(q, i, j, u, c)
-    if _point_err(q, tol, i, j, u, c, 1.0) > 1.0:
+    worst = 0.0
+    for it in range(NEWTON_STEPS):
+        worst = _newton(q, w, i, j, u, c, 1.0 if it == NEWTON_STEPS - 1 else np.inf)
+    if worst > 1.0:
         return False
     return _bulge_ok(q, tol, i, j, u, c)
 
 
 @njit(cache=True, error_model="numpy")
-def _snap_joint(q, tol, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
+def _snap_joint(q, tol, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
     """Snap the joint between segment a (incoming) and b (outgoing) if it qualifies and
     both segments still fit. ut, ca, cb are scratch."""
     px = q[ends[a + 1], 0]
@@ -456,7 +451,7 @@ def _snap_joint(q, tol, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
         g = a if r == 0 else b
         for k in range(ends[g], ends[g + 1] + 1):
             ut[k] = u[k]
-        if not _check_fixed(q, tol, ends[g], ends[g + 1], ut, ca if r == 0 else cb):
+        if not _check_fixed(q, tol, w, ends[g], ends[g + 1], ut, ca if r == 0 else cb):
             return
     for r in range(nseg):
         g = a if r == 0 else b
@@ -468,7 +463,9 @@ def _snap_joint(q, tol, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
 
 
 @njit(cache=True, error_model="numpy")
-def _fit_open(q, tol, n, closed, cos_snap, cum, u, ut, c, cbest, ends, ctrl, ca, cb):
+def _fit_open(
+    q, tol, w, n, closed, cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
+):
     """Fit q[:n] (already closed by repetition when `closed`); fills ends[0:m+1] and
     ctrl[0:m]; returns m."""
     cum[0] = 0.0
@@ -497,7 +494,7 @@ def _fit_open(q, tol, n, closed, cos_snap, cum, u, ut, c, cbest, ends, ctrl, ca,
                 if hi - lo <= 1:
                     break
                 j = (lo + hi) // 2
-            if _fit_span(q, tol, cum, i, j, u, c):
+            if _fit_span(q, tol, w, cum, i, j, u, c, work):
                 lo = j
                 for k in range(4):
                     cbest[k] = c[k]
@@ -520,7 +517,7 @@ def _fit_open(q, tol, n, closed, cos_snap, cum, u, ut, c, cbest, ends, ctrl, ca,
     if cos_snap < 1.0:
         # interior joints in order, then the closing joint of a closed chain
         for a in range(m - 1 + (1 if closed else 0)):
-            _snap_joint(q, tol, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
+            _snap_joint(q, tol, w, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
     return m
 
 
@@ -555,6 +552,7 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap):
     size = nmax + 1
     q = np.empty((size, 2))
     tq = np.empty(size)
+    wq = np.empty(size)
     cum = np.empty(size)
     u = np.empty(size)
     ut = np.empty(size)
@@ -564,6 +562,7 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap):
     cbest = np.empty(4)
     ca = np.empty(4)
     cb = np.empty(4)
+    work = np.empty((4, 5))
     cap = max(16, points.shape[0])
     out = np.empty((cap, 2))
     chain_offsets = np.empty(npoly + 1, np.int64)
@@ -591,7 +590,11 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap):
                 q[k, 1] = points[o + k, 1]
                 tq[k] = tol[o + k]
             nn = n
-        m = _fit_open(q, tq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, ends, ctrl, ca, cb)
+        for k in range(nn):
+            wq[k] = 1.0 / (tq[k] * tq[k])
+        m = _fit_open(
+            q, tq, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
+        )
         need = used + 1 + 3 * m
         if need > cap:
             while cap < need:
@@ -642,7 +645,7 @@ def _lsq_ref(q, tol, i, j, u):
     p0, p3 = q[i], q[j]
     t = u[i + 1 : j]
     b0, b1, b2, b3 = _bernstein_ref(t)
-    w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])
+    w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])  # the kernels' w
     r = q[i + 1 : j] - b0[:, None] * p0 - b3[:, None] * p3
     a11 = np.sum(w * b1 * b1)
     a12 = np.sum(w * b1 * b2)
@@ -694,7 +697,8 @@ def _point_err_ref(q, tol, i, j, u, c):
     if j - i < 2:
         return 0.0
     d = _eval_ref(q[i], c, q[j], u[i + 1 : j]) - q[i + 1 : j]
-    return float(np.max((d[:, 0] ** 2 + d[:, 1] ** 2) / (tol[i + 1 : j] * tol[i + 1 : j])))
+    w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])
+    return float(np.max((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) * w))
 
 
 def _newton_ref(q, i, j, u, c):
@@ -715,15 +719,25 @@ def _newton_ref(q, i, j, u, c):
 
 
 def _bulge_ok_ref(q, tol, i, j, u, c):
-    poly = np.array([q[i], [c[0], c[1]], [c[2], c[3]], q[j]])
-    legs = np.diff(poly, axis=0)
-    speed = 3.0 * np.sqrt(np.max(legs[:, 0] * legs[:, 0] + legs[:, 1] * legs[:, 1]))
+    p0, p3, c1, c2 = q[i], q[j], np.array(c[:2]), np.array(c[2:])
+    sec = np.array([p0 - 2.0 * c1 + c2, c1 - 2.0 * c2 + p3])
+    curv = 6.0 * np.sqrt(np.max(sec[:, 0] * sec[:, 0] + sec[:, 1] * sec[:, 1]))
     tl = np.maximum(tol[i:j], tol[i + 1 : j + 1])  # per edge (= per interval)
     du = u[i + 1 : j + 1] - u[i:j]
-    ns = 2 + np.minimum(speed * du / (SPACING * tl), MAX_EXTRA_SAMPLES).astype(np.int64)
-    k = np.repeat(np.arange(j - i), ns)
-    m = np.arange(len(k)) - np.repeat(np.cumsum(ns) - ns, ns) + 1
-    x = _eval_ref(q[i], c, q[j], u[i:j][k] + du[k] * m / (ns[k] + 1))
+    need = du * np.sqrt(curv / tl)
+    ns = np.where(need > 1.0, np.minimum(need, MAX_SAMPLES).astype(np.int64), 1)
+    margin = curv * (du / (ns + 1)) ** 2 / 8.0
+    # samples: t = u[k] + du[k] * m / (ns[k] + 1), m = 0 .. ns[k] (m = 0 skipped for k = 0,
+    # where the curve starts on q[i]); the sample at u[k] takes the larger adjacent margin
+    first = np.ones(j - i, np.int64)
+    first[1:] = 0
+    count = ns + 1 - first
+    k = np.repeat(np.arange(j - i), count)
+    m = np.arange(len(k)) - np.repeat(np.cumsum(count) - count, count) + first[k]
+    x = _eval_ref(p0, c, p3, u[i:j][k] + du[k] * m / (ns[k] + 1))
+    mg = margin[k].copy()
+    at_u = (m == 0) & (k > 0)
+    mg[at_u] = np.maximum(margin[k[at_u]], margin[k[at_u] - 1])
     a, e = q[i:j], q[i + 1 : j + 1] - q[i:j]
     ll = e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1]
     w = x[:, None, :] - a[None]
@@ -732,7 +746,8 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     h = np.clip(h, 0.0, 1.0)
     dx = a[:, 0] + h * e[:, 0] - x[:, None, 0]
     dy = a[:, 1] + h * e[:, 1] - x[:, None, 1]
-    return bool(np.all(np.any(dx * dx + dy * dy <= tl * tl, axis=1)))
+    lim = tl[None, :] - mg[:, None]
+    return bool(np.all(np.any((lim >= 0.0) & (dx * dx + dy * dy <= lim * lim), axis=1)))
 
 
 def _fit_span_ref(q, tol, cum, i, j, u):

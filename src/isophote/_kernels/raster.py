@@ -23,9 +23,10 @@ from numba import njit
 def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
     """Band (winding sum) of rows row0 .. row0 + n_rows - 1, columns col0 .. col0 + n_cols - 1.
 
-    Returns (band (n_rows, n_cols) int16, first_x, first_dw, last_x, last_dw), the last four
-    (n_rows, n_cols + 1) arrays (empty unless ``crossings``): per gap, the leftmost and
-    rightmost crossing of a source edge (dw = 0 where the gap has none).
+    Returns (band (n_rows, n_cols) int16, first_x, first_dw, last_x, last_dw, first_slope,
+    last_slope), the last six (n_rows, n_cols + 1) arrays (empty unless ``crossings``): per
+    gap, the leftmost and rightmost crossing of a source edge (dw = 0 where the gap has none)
+    and the crossing edge's dx/dy.
     """
     delta = np.zeros((n_rows, n_cols + 1), np.int32)
     if crossings:
@@ -33,11 +34,15 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
         lx = np.full((n_rows, n_cols + 1), -np.inf, np.float64)
         fd = np.zeros((n_rows, n_cols + 1), np.int8)
         ld = np.zeros((n_rows, n_cols + 1), np.int8)
+        fs = np.zeros((n_rows, n_cols + 1), np.float32)
+        ls = np.zeros((n_rows, n_cols + 1), np.float32)
     else:
         fx = np.empty((0, 0), np.float64)
         lx = np.empty((0, 0), np.float64)
         fd = np.empty((0, 0), np.int8)
         ld = np.empty((0, 0), np.int8)
+        fs = np.empty((0, 0), np.float32)
+        ls = np.empty((0, 0), np.float32)
     for e in range(x0.shape[0]):
         ya = y0[e]
         yb = y1[e]
@@ -70,16 +75,18 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
                 if x < fx[i, k]:
                     fx[i, k] = x
                     fd[i, k] = dw
+                    fs[i, k] = slope
                 if x > lx[i, k]:
                     lx[i, k] = x
                     ld[i, k] = dw
+                    ls[i, k] = slope
     band = np.empty((n_rows, n_cols), np.int16)
     for i in range(n_rows):
         acc = 0
         for j in range(n_cols):
             acc += delta[i, j]
             band[i, j] = acc
-    return band, fx, fd, lx, ld
+    return band, fx, fd, lx, ld, fs, ls
 
 
 def rasterise_ref(x0, y0, x1, y1, row0, col0, n_rows, n_cols):

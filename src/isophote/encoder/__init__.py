@@ -101,6 +101,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
         cap_contour=tree.cap_contour,
         cap_xy=np.round(tree.cap_xy * q) / q,
         cap_value=np.round(tree.cap_value * q) / q,
+        base_band=iso.base_band,
     )
 
 
@@ -135,27 +136,25 @@ def fit_isolines(iso: Isolines, snap: float):
         tl = tol[offs[i] : offs[i + 1]]
         plan = []
         n = len(pts)
-        if brd.all():
-            plan.append(("line", _corners(np.vstack([pts, pts[:1]]))))
-        else:
-            # start at the first isoline segment that follows a border segment
-            k0 = int(np.flatnonzero(~brd & np.roll(brd, 1))[0])
-            idx = (np.arange(n + 1) + k0) % n  # points k0 .. k0 + n (back to start)
-            segb = brd[idx[:-1]]
-            start = 0
-            while start < n:
-                stop = start
-                while stop < n and segb[stop] == segb[start]:
-                    stop += 1
-                run = idx[start : stop + 1]
-                if segb[start]:
-                    plan.append(("line", _corners(pts[run])))
-                else:
-                    plan.append(("fit", len(piece_pts)))
-                    piece_pts.append(pts[run])
-                    piece_tol.append(tl[run])
-                    piece_closed.append(False)
-                start = stop
+        # every kept loop has an isoline stretch (isolines.py drops frame-only loops):
+        # start at the first isoline segment that follows a border segment
+        k0 = int(np.flatnonzero(~brd & np.roll(brd, 1))[0])
+        idx = (np.arange(n + 1) + k0) % n  # points k0 .. k0 + n (back to start)
+        segb = brd[idx[:-1]]
+        start = 0
+        while start < n:
+            stop = start
+            while stop < n and segb[stop] == segb[start]:
+                stop += 1
+            run = idx[start : stop + 1]
+            if segb[start]:
+                plan.append(("line", _corners(pts[run])))
+            else:
+                plan.append(("fit", len(piece_pts)))
+                piece_pts.append(pts[run])
+                piece_tol.append(tl[run])
+                piece_closed.append(False)
+            start = stop
         plans[i] = plan
 
     counts = np.array([len(p) for p in piece_pts], np.int64)

@@ -1,8 +1,8 @@
 """The encloses tree (§4) and cap annotations.
 
 parent(loop) is the innermost loop enclosing it, found by winding numbers along a ray
-(loops never cross, so one point of a loop decides; _kernels/enclose.py). Loops that lie
-wholly on the image border (the whole image is above their level) coincide and nest by level.
+(loops never cross, so one point of a loop decides; _kernels/enclose.py). Loops lying wholly
+on the image border are not kept (see isolines.py), so every loop has an isoline stretch.
 A region is a footprint minus its children's footprints.
 
 Caps: a connected region (of the labelled band grid, _kernels/regions.py) whose bounding
@@ -17,6 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scipy.ndimage import distance_transform_edt
+
+from ..model import CAP_RAMP
 from .._kernels.enclose import innermost_enclosing
 from .._kernels.regions import label_regions, region_stats
 from .isolines import Isolines
@@ -41,6 +44,37 @@ def loop_areas(iso: Isolines) -> np.ndarray:
     cross = p[:, 0] * p[nxt, 1] - p[nxt, 0] * p[:, 1]
     cs = np.concatenate([[0.0], np.cumsum(cross)])
     return 0.5 * (cs[iso.offsets[1:]] - cs[iso.offsets[:-1]])
+
+
+def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):
+    """Least-squares cap values for the profile of model.py.
+
+    d is measured on the grid: the distance to the nearest sample of another region (not
+    the padding: the border is no isoline) plus half a grid step, in pixels.
+    """
+    lab = labels[1:-1, 1:-1]
+    v = values[1:-1, 1:-1]
+    edge = np.zeros(lab.shape, bool)
+    dh = lab[:, :-1] != lab[:, 1:]
+    dv = lab[:-1, :] != lab[1:, :]
+    edge[:, :-1] |= dh
+    edge[:, 1:] |= dh
+    edge[:-1, :] |= dv
+    edge[1:, :] |= dv
+    if not edge.any():
+        return np.array([float(v.mean())] * len(regs))
+    d = (distance_transform_edt(~edge) + 0.5) * 0.5
+    flat = lab.ravel()
+    dmax = np.zeros(m)
+    np.maximum.at(dmax, flat, d.ravel())
+    L = np.zeros(m)
+    L[regs] = level_value
+    ramp_eff = np.minimum(dmax, ramp)[flat]
+    f = np.minimum(1.0, d.ravel() / np.maximum(ramp_eff, 1e-9))
+    num = np.bincount(flat, weights=(v.ravel() - L[flat]) * f, minlength=m)
+    den = np.bincount(flat, weights=f * f, minlength=m)
+    out = L[regs] + num[regs] / np.maximum(den[regs], 1e-12)
+    return np.clip(out, 0.0, 255.0)
 
 
 def segment_table(iso: Isolines):
@@ -81,11 +115,6 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
             0.5 * (x0[qs] + x1[qs]), 0.5 * (y0[qs] + y1[qs]), has_q.astype(np.int64),
             x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
         )
-    # loops lying wholly on the border (the image is above their level everywhere) nest by level
-    all_border = np.setdiff1d(np.arange(c), has_q)
-    all_border = all_border[np.argsort(lev_loop[all_border], kind="stable")]
-    if all_border.size:
-        parent[all_border[1:]] = all_border[:-1]
 
     labels, m = label_regions(iso.values, iso.band.astype(np.int64), np.asarray(levels, np.float64))
     lab = labels.ravel()
@@ -124,6 +153,11 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
         cap_idx.append(idx)
         cap_value.append(value)
     cap_idx = np.asarray(cap_idx, np.int64)
+    if len(regs):
+        single = hi[regs] >= 0
+        level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
+        fitted = fit_cap_values(labels, iso.values, m, regs, level_value, single)
+        cap_value = np.where(single, fitted, np.asarray(cap_value, np.float64))
     r, cc = np.divmod(cap_idx, wp)
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
     cap_contour = innermost_enclosing(

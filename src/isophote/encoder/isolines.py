@@ -30,6 +30,8 @@ class Isolines:
         its start point lies on (the above one on the segment's left); for border segments the
         below one is padding.
     band : (Hp, Wp) int16 padded band grid; values : (Hp, Wp) float64 padded grid (pad = 0).
+    base_band : the band of the root region; the loops of levels below it would lie wholly on
+        the image border and are left out (see model.py).
     """
 
     points: np.ndarray
@@ -41,6 +43,7 @@ class Isolines:
     below: np.ndarray
     band: np.ndarray
     values: np.ndarray
+    base_band: int = 0
 
     @property
     def n_loops(self) -> int:
@@ -83,16 +86,28 @@ def find_isolines(grid, grid_eps, levels, min_tol=0.05, max_tol=0.5) -> Isolines
     ef, gf = eps_p.ravel(), grad_p.ravel()
     tol = tolerances(ef[below], ef[above], gf[below], gf[above], t, min_tol, max_tol)
     first = order[offs[:-1]]
+    border = seg["border"][order]
+    level = seg["level"][first].astype(np.int32)
+    # loops lying wholly on the border: the image border is above their level all round
+    seg_loop = np.repeat(np.arange(len(first)), np.diff(offs))
+    interior = np.zeros(len(first), bool)
+    interior[seg_loop[~border]] = True
+    base = int(np.count_nonzero(~interior))
+    if base and not np.array_equal(np.sort(level[~interior]), np.arange(base)):
+        raise RuntimeError("frame loops are not the lowest levels")  # a bug, never input
+    keep_seg = interior[seg_loop]
+    counts = np.diff(offs)[interior]
     return Isolines(
-        points=points,
-        offsets=offs,
-        border=seg["border"][order],
-        tol=tol,
-        level=seg["level"][first].astype(np.int32),
-        above=above,
-        below=below,
+        points=points[keep_seg],
+        offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        border=border[keep_seg],
+        tol=tol[keep_seg],
+        level=level[interior],
+        above=above[keep_seg],
+        below=below[keep_seg],
         band=band,
         values=vals,
+        base_band=base,
     )
 
 

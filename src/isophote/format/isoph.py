@@ -57,9 +57,10 @@ Header body (version 1)
     48     u32   payload_crc    CRC-32 of the payload_size stored payload bytes
     52     u32   meta_size      0 .. MAX_META_BYTES
     56     ...   meta           meta_size bytes: a UTF-8 JSON object (nothing if meta_size 0)
-    then n_channels channel summaries of 15 + 8 L bytes each:
+    then n_channels channel summaries of 17 + 8 L bytes each:
            u8    name           ASCII "Y", "U", "V" or "A"
            u16   n_levels       L, 0 .. MAX_LEVELS
+           u16   base_band      band of the root region (Channel.base_band), 0 .. L
            u32   n_contours     C, 0 .. n_segments (every contour has at least 1 segment)
            u32   n_segments     S, over all the channel's contours, 0 .. MAX_SEGMENTS
            u32   n_caps         K, 0 .. MAX_CAPS
@@ -87,11 +88,12 @@ Payload
   preset 6 when asked for "lzma".
 
 The stream must decompress to exactly ``raw_size`` bytes and end exactly at the end of the
-file. Measured on photograph-like contour sets (smooth closed chains of 4-12 px G1 cubic
-segments): zlib 6.5-7.9 bytes per segment, writing ~1 M segments/s and reading ~10 M/s;
-LZMA2 3-7 % smaller but 10 times slower both ways. ``raw_size`` may not exceed
-``MAX_EXPANSION * payload_size + EXPANSION_SLACK``; the writer stores the payload (code 0)
-in the rare case that the compressor does better than that.
+file. Measured on synthetic photograph-like contour sets and on scikit-image photographs
+through the encoder (docs/format.md has the table): zlib 6.6-8.4 bytes per segment, writing
+about a million segments a second and reading a few million; LZMA2 3-7 % smaller but about
+10 times slower to write. ``raw_size`` may not exceed ``MAX_EXPANSION * payload_size +
+EXPANSION_SLACK``; the writer stores the payload (code 0) in the rare case that the
+compressor does better than that.
 
 Raw payload
 -----------
@@ -102,10 +104,10 @@ BYTE PLANES of n bytes each, least significant first: plane j holds byte j of ev
     values     0x0102  0x0304  0x0506              (u16, n = 3)
     stored     02 04 06 | 01 03 05                 (plane 0, then plane 1)
 
-so the mostly-zero high bytes of small numbers form runs the compressor removes (plane
-layouts compressed 5-12 % better with zlib than interleaved varints). ``zz(v)`` is the
-zigzag map from signed to unsigned: 0, -1, 1, -2, 2 ... -> 0, 1, 2, 3, 4 ...
-(``(v << 1) ^ (v >> 63)``). For a channel with L levels, C contours, S segments and K caps::
+so the mostly-zero high bytes of small numbers form runs the compressor removes (with zlib,
+planes came out 7-15 % smaller than LEB128 varints). ``zz(v)`` is the zigzag map from signed
+to unsigned: 0, -1, 1, -2, 2 ... -> 0, 1, 2, 3, 4 ... (``(v << 1) ^ (v >> 63)``). For a
+channel with L levels, C contours, S segments and K caps::
 
     column        values  width  value                       meaning
     level         C       u16    zz(lev[k] - lev[k-1])       contour_level, lev[-1] = 0
@@ -114,7 +116,7 @@ zigzag map from signed to unsigned: 0, -1, 1, -2, 2 ... -> 0, 1, 2, 3, 4 ...
     points        6 S     u32    zz(dx), zz(dy), ...         see "Points"
     cap_band      K       u16    cap_band[i]                 0 .. L
     cap_contour   K       u32    zz(cc[i] - cc[i-1])         cap_contour, cc[-1] = -1
-    cap_xy        2 K     u32    zz(x), zz(y), ...           absolute, in 1/64 px
+    cap_xy        2 K     u32    zz(dx), zz(dy), ...         see "Caps"
     cap_value     K       u32    zz(v)                       in 1/64 grey level
     border        ceil(S/8) bytes, not a column              see "Border"
 
@@ -122,12 +124,17 @@ A channel's raw size is therefore exactly 10 C + 24 S + 18 K + ceil(S / 8) bytes
 ``raw_size`` must equal the sum over the channels.
 
 Points: contour k's chain has 1 + 3 n[k] control points P0, C0a, C0b, P1, ..., Pn and is
-closed (Pn == P0), so the last point is not stored; the other 3 n[k] are, as integers on the
-1/64-pixel grid (``round(x * 64)``). The first is absolute; each of the others is the
-difference from the point before it in the same chain. The values of all chains, (x, y)
-pairs in chain order, make one column of 6 S values. Consecutive differences compressed
-best of the layouts measured (anchor-relative handles, handles predicted by mirroring, and
-separate x and y columns were 1-8 % larger).
+closed (Pn == P0), so the closing point is not stored; the other 3 n[k] are, as integers on
+the 1/64-pixel grid (``round(x * 64)``). The stored points of all the channel's chains, in
+order, make one stream of 3 S points, each stored as its difference from the point before
+it in the stream (the first from (0, 0)); the (dx, dy) pairs make one column of 6 S values.
+Consecutive differences compressed best of the layouts measured (anchor-relative handles,
+handles predicted by mirroring, separate x and y columns were 1-8 % larger; restarting
+from absolute values at each chain 1.6 % larger on real photographs).
+
+Caps: a cap's position is stored as its difference from the first control point (P0) of
+its contour ``cap_contour[i]``, or from (0, 0) when that is -1 (the root region); caps lie
+inside their contour, so the differences are small (1.7 % smaller files than absolute).
 
 Border: the flag of segment s (segments of all contours, in order) is bit ``s % 8`` (least
 significant first) of byte ``s // 8``; the padding bits of the last byte are zero.
@@ -151,7 +158,7 @@ Never trust a file. ``loads`` rejects with a FormatError (a LimitError for a siz
 limit) whose one-line message says what is wrong: bad magic; truncation or trailing bytes;
 header or payload checksum mismatch; unknown version, reserved bits, compression, quanta,
 colour, depth or channel layout; a count over its limit or not matching the payload size;
-levels not finite and strictly increasing; a payload that does not decompress to exactly
+levels not finite and strictly increasing; a base band outside [0, L]; a payload that does not decompress to exactly
 raw_size bytes; a contour level outside [0, L); segment counts that do not add up to S; a
 parent outside [-1, C) or parents that form a cycle; a cap band outside [0, L], a cap
 contour outside [-1, C); a coordinate or cap value beyond its limit; non-zero padding bits.
@@ -249,7 +256,7 @@ EXPANSION_SLACK = 1 << 20
 
 _PREAMBLE = struct.Struct("<8sHHI")  # magic, version, reserved, header_size
 _FIXED = struct.Struct("<IIBBBBHHQQII")  # width .. meta_size: offsets 16 .. 56
-_CHANNEL = struct.Struct("<cHIII")  # name, n_levels, n_contours, n_segments, n_caps
+_CHANNEL = struct.Struct("<cHHIII")  # name, n_levels, base_band, n_contours, n_segments, n_caps
 _CRC = struct.Struct("<I")
 PREAMBLE_BYTES = _PREAMBLE.size  # 16
 _MIN_HEADER_BYTES = PREAMBLE_BYTES + _FIXED.size + _CHANNEL.size + _CRC.size
@@ -310,13 +317,12 @@ def loads(data) -> VectorImage:
     not a valid .isoph file; never another exception type for bad data.
     """
     buf = bytes(data)
-    try:
-        return _loads(buf)
-    except (FormatError, LimitError):
-        raise
-    except (ValueError, IndexError, OverflowError, struct.error, RecursionError) as e:
-        # A last resort: every problem should meet its own check first (the tests say so).
-        raise FormatError(f"malformed .isoph file ({type(e).__name__}: {e})") from None
+
+    def parse():
+        h = _parse_header(buf, len(buf))
+        return _decode(h, memoryview(buf)[h.header_size :])
+
+    return _guarded(parse)
 
 
 def save(vi: VectorImage, path, compression: str = DEFAULT_COMPRESSION) -> None:
@@ -325,18 +331,22 @@ def save(vi: VectorImage, path, compression: str = DEFAULT_COMPRESSION) -> None:
 
 
 def load(path) -> VectorImage:
-    """Read an .isoph file. FormatError (or LimitError) for unreadable or malformed files."""
+    """Read an .isoph file. FormatError (or LimitError) for unreadable or malformed files.
+
+    The header is read and checked first; then exactly the payload it declares.
+    """
+    where = f"{os.fspath(path)}: "
     try:
         with open(path, "rb") as f:
-            data = f.read()
+            size, head = _read_head(f)
+            h = _with_where(where, lambda: _guarded(lambda: _parse_header(head, size)))
+            f.seek(h.header_size)
+            payload = f.read(h.payload_size)
     except OSError as e:
-        raise FormatError(f"{os.fspath(path)}: cannot read: {e.strerror or e}") from None
-    try:
-        return loads(data)
-    except FormatError as e:
-        raise FormatError(f"{os.fspath(path)}: {e}") from None
-    except LimitError as e:
-        raise LimitError(f"{os.fspath(path)}: {e}") from None
+        raise FormatError(f"{where}cannot read: {e.strerror or e}") from None
+    if len(payload) != h.payload_size:
+        raise FormatError(f"{where}truncated .isoph file: the file shrank while being read")
+    return _with_where(where, lambda: _guarded(lambda: _decode(h, payload)))
 
 
 def read_info(path_or_bytes) -> dict:
@@ -351,8 +361,8 @@ def read_info(path_or_bytes) -> dict:
     dict
         ``format_version``, ``width``, ``height``, ``colour``, ``source_depth``, ``bytes``
         (the file size), ``compression`` ("none", "zlib" or "lzma"), ``meta`` (dict) and
-        ``channels``: a list of ``{"name", "levels" (list of float), "contours",
-        "segments", "caps"}``.
+        ``channels``: a list of ``{"name", "levels" (list of float), "base_band",
+        "contours", "segments", "caps"}``.
 
     The header checksum is verified and the file size checked against the header, so a
     truncated file is reported; the payload's checksum is ``load``'s business.
@@ -365,20 +375,10 @@ def read_info(path_or_bytes) -> dict:
         where = f"{os.fspath(path_or_bytes)}: "
         try:
             with open(path_or_bytes, "rb") as f:
-                size = os.fstat(f.fileno()).st_size
-                head = f.read(PREAMBLE_BYTES)
-                if len(head) == PREAMBLE_BYTES and head[:8] == MAGIC:
-                    header_size = _PREAMBLE.unpack(head)[3]
-                    if header_size <= MAX_HEADER_BYTES:
-                        head += f.read(header_size - PREAMBLE_BYTES)
+                size, head = _read_head(f)
         except OSError as e:
             raise FormatError(f"{where}cannot read: {e.strerror or e}") from None
-    try:
-        h = _parse_header(head, size)
-    except FormatError as e:
-        raise FormatError(f"{where}{e}") from None
-    except LimitError as e:
-        raise LimitError(f"{where}{e}") from None
+    h = _with_where(where, lambda: _guarded(lambda: _parse_header(head, size)))
     return {
         "format_version": h.version,
         "width": h.width,
@@ -392,6 +392,7 @@ def read_info(path_or_bytes) -> dict:
             {
                 "name": c.name,
                 "levels": [float(v) for v in c.levels],
+                "base_band": c.base_band,
                 "contours": c.n_contours,
                 "segments": c.n_segments,
                 "caps": c.n_caps,
@@ -399,6 +400,38 @@ def read_info(path_or_bytes) -> dict:
             for c in h.channels
         ],
     }
+
+
+def _read_head(f):
+    """(file size, the header's bytes as far as the preamble vouches for them)."""
+    size = os.fstat(f.fileno()).st_size
+    head = f.read(PREAMBLE_BYTES)
+    if len(head) == PREAMBLE_BYTES and head[:8] == MAGIC:
+        header_size = _PREAMBLE.unpack(head)[3]
+        if header_size <= MAX_HEADER_BYTES:
+            head += f.read(header_size - PREAMBLE_BYTES)
+    return size, head
+
+
+def _guarded(parse):
+    """Run ``parse``; a stray low-level error from bad data becomes a FormatError."""
+    try:
+        return parse()
+    except (FormatError, LimitError):
+        raise
+    except (ValueError, IndexError, OverflowError, struct.error, RecursionError) as e:
+        # A last resort: every problem should meet its own check first (the tests say so).
+        raise FormatError(f"malformed .isoph file ({type(e).__name__}: {e})") from None
+
+
+def _with_where(where: str, parse):
+    """Run ``parse``, prefixing its error messages with ``where`` (a path)."""
+    try:
+        return parse()
+    except FormatError as e:
+        raise FormatError(f"{where}{e}") from None
+    except LimitError as e:
+        raise LimitError(f"{where}{e}") from None
 
 
 # =============================================================================================
@@ -453,10 +486,10 @@ def _raw_channel_bytes(c: int, s: int, k: int) -> int:
 
 
 class _ChannelInfo:
-    __slots__ = ("name", "levels", "n_contours", "n_segments", "n_caps")
+    __slots__ = ("name", "levels", "base_band", "n_contours", "n_segments", "n_caps")
 
-    def __init__(self, name, levels, n_contours, n_segments, n_caps):
-        self.name, self.levels = name, levels
+    def __init__(self, name, levels, base_band, n_contours, n_segments, n_caps):
+        self.name, self.levels, self.base_band = name, levels, base_band
         self.n_contours, self.n_segments, self.n_caps = n_contours, n_segments, n_caps
 
 
@@ -476,7 +509,8 @@ def _header_bytes(width, height, colour, depth, infos, compression, payload, raw
     )
     body += meta
     for c in infos:
-        body += _CHANNEL.pack(c.name.encode("ascii"), len(c.levels), c.n_contours, c.n_segments, c.n_caps)
+        body += _CHANNEL.pack(c.name.encode("ascii"), len(c.levels), c.base_band, c.n_contours,
+                              c.n_segments, c.n_caps)
         body += np.asarray(c.levels, dtype="<f8").tobytes()
     header_size = PREAMBLE_BYTES + len(body) + _CRC.size
     head = _PREAMBLE.pack(MAGIC, FORMAT_VERSION, 0, header_size) + bytes(body)
@@ -484,14 +518,18 @@ def _header_bytes(width, height, colour, depth, infos, compression, payload, raw
 
 
 def _unsupported(version: int) -> FormatError:
-    return FormatError(f"unsupported .isoph format version {version} (this reader knows version {FORMAT_VERSION})")
+    return FormatError(
+        f"unsupported .isoph format version {version} (this reader knows version {FORMAT_VERSION})"
+    )
 
 
 def _parse_header(data: bytes, file_size: int) -> _Header:
     """Parse and check the header at the start of ``data`` (which may be the whole file)."""
     if len(data) < PREAMBLE_BYTES:
         if MAGIC.startswith(data[:8]):
-            raise FormatError(f"truncated .isoph file: {file_size} bytes, shorter than the {PREAMBLE_BYTES}-byte preamble")
+            raise FormatError(
+                f"truncated .isoph file: {file_size} bytes, shorter than the {PREAMBLE_BYTES}-byte preamble"
+            )
         raise FormatError("not an .isoph file (bad magic bytes)")
     magic, version, reserved, header_size = _PREAMBLE.unpack_from(data, 0)
     if magic != MAGIC:
@@ -499,9 +537,13 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
     if not _MIN_HEADER_BYTES <= header_size <= MAX_HEADER_BYTES:
         if version > FORMAT_VERSION:  # a newer layout may well have a larger header
             raise _unsupported(version)
-        raise FormatError(f"header size {header_size} is outside [{_MIN_HEADER_BYTES}, {MAX_HEADER_BYTES}] (corrupted preamble)")
+        raise FormatError(
+            f"header size {header_size} is outside [{_MIN_HEADER_BYTES}, {MAX_HEADER_BYTES}] (corrupted preamble)"
+        )
     if file_size < header_size or len(data) < header_size:
-        raise FormatError(f"truncated .isoph file: {file_size} bytes, the header alone declares {header_size}")
+        raise FormatError(
+            f"truncated .isoph file: {file_size} bytes, the header alone declares {header_size}"
+        )
     (stored_crc,) = _CRC.unpack_from(data, header_size - 4)
     if zlib.crc32(data[: header_size - 4]) != stored_crc:
         raise FormatError("header checksum mismatch (corrupted header)")
@@ -541,14 +583,17 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
         raise FormatError(f"unknown compression code {compression} (0 = stored, 1 = zlib, 2 = lzma)")
     h.compression = compression
     if xy_quant != QUANT or value_quant != QUANT:
-        raise FormatError(f"quanta {xy_quant}/{value_quant} are not {QUANT}/{QUANT} as version {FORMAT_VERSION} requires")
+        raise FormatError(
+            f"quanta {xy_quant}/{value_quant} are not {QUANT}/{QUANT} as version {FORMAT_VERSION} requires"
+        )
     if meta_size > MAX_META_BYTES:
         raise LimitError(f"meta of {meta_size} bytes exceeds the {MAX_META_BYTES}-byte limit")
     h.meta = _parse_meta(take(meta_size, "meta"))
 
     channels = []
     for i in range(n_channels):
-        name, n_levels, n_contours, n_segments, n_caps = _CHANNEL.unpack(take(_CHANNEL.size, f"channel {i} summary"))
+        summary = take(_CHANNEL.size, f"channel {i} summary")
+        name, n_levels, base_band, n_contours, n_segments, n_caps = _CHANNEL.unpack(summary)
         label = name.decode("latin-1")
         if n_levels > MAX_LEVELS:
             raise LimitError(f"channel {label}: {n_levels} levels exceed the limit of {MAX_LEVELS}")
@@ -560,9 +605,12 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
             raise FormatError(f"channel {label}: {n_contours} contours but only {n_segments} segments")
         if n_contours > 0 and n_levels == 0:
             raise FormatError(f"channel {label}: {n_contours} contours but no levels")
-        levels = np.frombuffer(take(8 * n_levels, f"channel {label} levels"), dtype="<f8").astype(np.float64)
+        if base_band > n_levels:
+            raise FormatError(f"channel {label}: base band {base_band} is outside [0, {n_levels}]")
+        levels = np.frombuffer(take(8 * n_levels, f"channel {label} levels"), dtype="<f8")
+        levels = levels.astype(np.float64)
         _check_levels(levels, label)
-        channels.append(_ChannelInfo(label, levels, n_contours, n_segments, n_caps))
+        channels.append(_ChannelInfo(label, levels, base_band, n_contours, n_segments, n_caps))
     if pos != end:
         raise FormatError(f"header has {end - pos} unexpected byte(s) after the channel summaries")
     names = tuple(c.name for c in channels)
@@ -574,9 +622,14 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
     # the stored size must be what the file holds.
     expected_raw = sum(_raw_channel_bytes(c.n_contours, c.n_segments, c.n_caps) for c in channels)
     if raw_size != expected_raw:
-        raise FormatError(f"raw payload size {raw_size} does not match the {expected_raw} bytes the counts need")
+        raise FormatError(
+            f"raw payload size {raw_size} does not match the {expected_raw} bytes the counts need"
+        )
     if raw_size > MAX_EXPANSION * payload_size + EXPANSION_SLACK:
-        raise FormatError(f"payload of {payload_size} bytes declares {raw_size} raw bytes, over the {MAX_EXPANSION}:1 limit")
+        raise FormatError(
+            f"payload of {payload_size} bytes declares {raw_size} raw bytes, "
+            f"over the {MAX_EXPANSION}:1 limit"
+        )
     if compression == COMPRESSION_STORED and payload_size != raw_size:
         raise FormatError(f"stored payload of {payload_size} bytes but raw size {raw_size}")
     expected = header_size + payload_size
@@ -763,6 +816,9 @@ def _encode_channel(ch: Channel):
     if cap_contour.shape != (k,) or cap_xy.shape != (k, 2) or cap_value.shape != (k,):
         raise FormatError(f"channel {label}: cap arrays must all have K = {k} entries")
     _check_semantics(label, levels.shape[0], level, parent, cap_band, cap_contour)
+    base_band = int(ch.base_band)
+    if not 0 <= base_band <= levels.shape[0]:
+        raise FormatError(f"channel {label}: base band {base_band} is outside [0, {levels.shape[0]}]")
 
     q = _quantise(points, COORD_LIMIT, f"channel {label}: a control point")
     if c and not np.array_equal(q[offsets[:-1]], q[offsets[1:] - 1]):
@@ -771,16 +827,10 @@ def _encode_channel(ch: Channel):
     cq = _quantise(cap_xy, COORD_LIMIT, f"channel {label}: a cap position")
     vq = _quantise(cap_value, CAP_VALUE_LIMIT, f"channel {label}: a cap value")
 
-    # Points: drop each chain's closing point; the first absolute, then differences.
+    # Points: drop each chain's closing point; differences along the whole stream.
     keep = np.ones(q.shape[0], bool)
     keep[offsets[1:] - 1] = False
-    stored = q[keep]
-    d = np.empty_like(stored)
-    if stored.shape[0]:
-        d[0] = stored[0]
-        d[1:] = stored[1:] - stored[:-1]
-        starts = offsets[:-1] - np.arange(c)  # where the chains start among the stored points
-        d[starts] = stored[starts]
+    d = np.diff(q[keep], axis=0, prepend=np.zeros((1, 2), np.int64))
     columns = [
         _planes(_zigzag(np.diff(level, prepend=0)), 2),
         _planes(nseg - 1, 4),
@@ -788,11 +838,11 @@ def _encode_channel(ch: Channel):
         _planes(_zigzag(d), 4),
         _planes(cap_band, 2),
         _planes(_zigzag(np.diff(cap_contour, prepend=-1)), 4),
-        _planes(_zigzag(cq), 4),
+        _planes(_zigzag(cq - _cap_origins(q, offsets, cap_contour)), 4),
         _planes(_zigzag(vq), 4),
         np.packbits(border.astype(bool), bitorder="little").tobytes(),
     ]
-    return _ChannelInfo(label, levels, c, s, k), b"".join(columns)
+    return _ChannelInfo(label, levels, base_band, c, s, k), b"".join(columns)
 
 
 def _int_array(a, label, what) -> np.ndarray:
@@ -817,9 +867,8 @@ def _quantise(a: np.ndarray, limit: int, what: str) -> np.ndarray:
 # =============================================================================================
 
 
-def _loads(buf: bytes) -> VectorImage:
-    h = _parse_header(buf, len(buf))
-    payload = buf[h.header_size :]
+def _decode(h: _Header, payload) -> VectorImage:
+    """The image from a checked header and its payload (bytes or memoryview)."""
     if zlib.crc32(payload) != h.payload_crc:
         raise FormatError("payload checksum mismatch (corrupted payload)")
     cols = _Columns(_decompress(payload, h.compression, h.raw_size))
@@ -867,28 +916,25 @@ def _decode_channel(cols: _Columns, info: _ChannelInfo) -> Channel:
     border_bits = np.unpackbits(cols.take((s + 7) // 8), bitorder="little")
 
     if int(nseg.sum()) != s:
-        raise FormatError(f"channel {label}: contours have {int(nseg.sum())} segments, the header declares {s}")
+        raise FormatError(
+            f"channel {label}: contours have {int(nseg.sum())} segments, the header declares {s}"
+        )
     parent = np.where(pcode == 0, -1, np.arange(c, dtype=np.int64) - _unzigzag(pcode))
     _check_semantics(label, info.levels.shape[0], level, parent, cap_band, cap_contour)
 
-    # Points: running sums within each chain (3 S values of at most 2**31: no overflow).
-    n_stored = 3 * nseg
-    starts = np.zeros(c, np.int64)
-    np.cumsum(n_stored[:-1], out=starts[1:])
-    run = np.cumsum(d, axis=0)
-    before = np.zeros((c, 2), np.int64)  # the running sum just before each chain
-    before[1:] = run[starts[1:] - 1]
-    stored = run - np.repeat(before, n_stored, axis=0)
+    # Points: running sums along the stream (3 S values of at most 2**31: no overflow).
+    stored = np.cumsum(d, axis=0)
     _check_limit(stored, COORD_LIMIT, f"channel {label}: a control point")
-    _check_limit(cq, COORD_LIMIT, f"channel {label}: a cap position")
-    _check_limit(vq, CAP_VALUE_LIMIT, f"channel {label}: a cap value")
     offsets = np.zeros(c + 1, np.int64)
-    np.cumsum(n_stored + 1, out=offsets[1:])
+    np.cumsum(3 * nseg + 1, out=offsets[1:])
     q = np.empty((int(offsets[-1]), 2), np.int64)
     keep = np.ones(q.shape[0], bool)
     keep[offsets[1:] - 1] = False
     q[keep] = stored
     q[offsets[1:] - 1] = q[offsets[:-1]]  # close every chain
+    cq = cq + _cap_origins(q, offsets, cap_contour)  # cap_contour was checked above
+    _check_limit(cq, COORD_LIMIT, f"channel {label}: a cap position")
+    _check_limit(vq, CAP_VALUE_LIMIT, f"channel {label}: a cap value")
 
     if np.any(border_bits[s:]):
         raise FormatError(f"channel {label}: padding bits after the border flags are not zero")
@@ -904,7 +950,16 @@ def _decode_channel(cols: _Columns, info: _ChannelInfo) -> Channel:
         cap_contour=cap_contour.astype(np.int32),
         cap_xy=cq.astype(np.float64) / QUANT,
         cap_value=vq.astype(np.float64) / QUANT,
+        base_band=info.base_band,
     )
+
+
+def _cap_origins(q: np.ndarray, offsets: np.ndarray, cap_contour: np.ndarray) -> np.ndarray:
+    """(K, 2): the first point of each cap's contour, (0, 0) for the root region."""
+    origins = np.zeros((cap_contour.shape[0], 2), np.int64)
+    inner = cap_contour >= 0
+    origins[inner] = q[offsets[cap_contour[inner]]]
+    return origins
 
 
 def _check_limit(q: np.ndarray, limit: int, what: str) -> None:

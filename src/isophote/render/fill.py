@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model import CAP_RAMP
 from .._kernels.diffuse import evaluate
 from .._kernels.raster import rasterise
 
@@ -27,10 +28,11 @@ def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool) -> np.ndarray:
     lo, hi = np.minimum(Y0, Y1), np.maximum(Y0, Y1)
     sel = (hi > row0) & (lo < row0 + n)
     tband, *_ = rasterise(X0[sel], Y0[sel], X1[sel], Y1[sel], src[sel], row0, vp.col0, n, m, False)
+    tband += np.int16(nf.base_band)
     xs = (vp.col0 + np.arange(m) + 0.5 + vp.offx) / vp.kx * nf.r
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
-    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, tband, xs, ys, nf.levels, nf.mode, flat, out)
+    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, out)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
     return out
