@@ -80,17 +80,20 @@ def check_chain(points, tol, closed, chain, bulge_eps=1e-3):
     # tolerance of its span of the polyline. A joint on a run of repeated points may be any
     # of them: take the span over the runs.
     first, last = [0], [0]
-    for g in range(1, n_segments(chain) + 1):
-        hit = np.flatnonzero(np.all(q[first[-1] + 1 :] == chain[3 * g], axis=1))
+    m = n_segments(chain)
+    for g in range(1, m):
+        hit = np.flatnonzero(np.all(q[first[-1] + 1 : -1] == chain[3 * g], axis=1))
         assert len(hit), "joint is not an input point"
         a = b = first[-1] + 1 + int(hit[0])
-        while b + 1 < len(q) and np.array_equal(q[b + 1], q[a]):
+        while b + 1 < len(q) - 1 and np.array_equal(q[b + 1], q[a]):
             b += 1
         first.append(a)
         last.append(b)
-    assert last[-1] == len(q) - 1
+    assert np.array_equal(chain[-1], q[-1])
+    first.append(len(q) - 1)
+    last.append(len(q) - 1)
     curve = sample_chain(chain)
-    for g in range(n_segments(chain)):
+    for g in range(m):
         i, j = first[g], last[g + 1]
         dd = polyline_distance(curve[g], q[i : j + 1])
         assert dd.max() <= t[i : j + 1].max() + bulge_eps, (g, dd.max(), t[i : j + 1].max())

@@ -322,6 +322,18 @@ def _raster_extensions():
     return FORMATS
 
 
+def _probe_format(path, depth: int) -> None:
+    """Fail now, not after a long render, if the output format cannot hold this depth."""
+    import tempfile
+
+    import numpy as np
+
+    from .imageio import write_image
+
+    with tempfile.TemporaryDirectory(prefix="isophote-probe-") as folder:
+        write_image(os.path.join(folder, "probe" + os.path.splitext(path)[1]), np.zeros((1, 1, 3)), depth=depth)
+
+
 def _load(path):
     from .format.isoph import load
 
@@ -375,6 +387,7 @@ def cmd_render(args) -> int:
     opts = _options(args, RenderOptions, RENDER_FLAGS)
     opts.validate()
     _check_output(args.output, args.input, args.compare, extensions=_raster_extensions())
+    _probe_format(args.output, opts.depth)
     if args.diff is not None:
         if args.compare is None:
             raise OptionError("--diff needs --compare ORIGINAL")

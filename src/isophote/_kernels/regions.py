@@ -1,6 +1,7 @@
 """Region labelling of a padded band grid (kernel + pure-Python twin).
 
-Two samples belong to one region when they have the same band and no isoline separates them:
+Two samples of the image (not the padding ring, whose samples stay regions of their own)
+belong to one region when they have the same band and no isoline separates them:
 4-neighbours of equal band always (an isoline cannot cross an edge whose ends share a band);
 diagonal neighbours of equal band b when the other two corners of their cell are not both on
 the same side of b, or when they are and the bilinear saddle value lies in band b too (the
@@ -49,13 +50,15 @@ def label_regions(vals, band, levels):
     hp, wp = band.shape
     n = hp * wp
     parent = np.arange(n)
-    for r in range(hp):
-        for c in range(wp):
+    # the padding ring joins nothing: regions are connected inside the image only, as the
+    # decoder sees them (each padding sample stays a region of its own, with no samples)
+    for r in range(1, hp - 1):
+        for c in range(1, wp - 1):
             i = r * wp + c
             b = band[r, c]
-            if c + 1 < wp and band[r, c + 1] == b:
+            if c + 1 < wp - 1 and band[r, c + 1] == b:
                 _union(parent, i, i + 1)
-            if r + 1 < hp and band[r + 1, c] == b:
+            if r + 1 < hp - 1 and band[r + 1, c] == b:
                 _union(parent, i, i + wp)
     for r in range(1, hp - 2):
         for c in range(1, wp - 2):
@@ -94,9 +97,11 @@ def label_regions_ref(vals, band, levels):
 
     def neighbours(r, c):
         b = band[r, c]
+        if not (1 <= r < hp - 1 and 1 <= c < wp - 1):
+            return
         for dr, dc in ((0, 1), (1, 0), (0, -1), (-1, 0)):
             rr, cc = r + dr, c + dc
-            if 0 <= rr < hp and 0 <= cc < wp and band[rr, cc] == b:
+            if 1 <= rr < hp - 1 and 1 <= cc < wp - 1 and band[rr, cc] == b:
                 yield rr, cc
         for dr, dc in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
             rr, cc = r + dr, c + dc
