@@ -60,7 +60,7 @@ def joint_angles(chain, closed):
     return np.array(out)
 
 
-def check_chain(points, tol, closed, chain, bulge_eps=1e-3):
+def check_chain(points, tol, closed, chain, bulge_eps=1e-9):
     """The fitter's guarantees, checked independently."""
     assert chain.dtype == np.float64 and chain.ndim == 2 and chain.shape[1] == 2
     assert (len(chain) - 1) % 3 == 0 and len(chain) >= 4
@@ -247,7 +247,8 @@ def test_random_curves_within_ribbon(snap):
 
 def test_snapping_aligns_joints_and_keeps_tolerance():
     snapped = 0
-    for pts, tol, closed in random_batch(2, 40):
+    # 80 curves: the no-backtracking rule declines some snaps, so the sample is larger
+    for pts, tol, closed in random_batch(2, 80):
         raw = fit_polyline(pts, tol, closed, snap=0.0)
         chain = fit_polyline(pts, tol, closed, snap=20.0)
         check_chain(pts, tol, closed, chain)

@@ -19,8 +19,10 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    point's parameter towards its foot on the curve. The tests: every point k lies within
    tol[k] of the curve point B(u[k]) (an upper bound of its distance to the curve), and
    the whole curve lies within max(tol[e], tol[e+1]) of some edge e of the span (so it
-   cannot bulge between points): checked at B(u[k]) and at samples between, each against
-   its tolerance less a margin that bounds the curve's excursion between samples.
+   cannot bulge between points): every two neighbouring curve samples (at each u[k] and
+   between) lie within one same edge's tolerance less a margin that bounds the curve's
+   excursion from their chord. Between points the curve must also run the way of its
+   edge (no fish-tail loops inside the ribbon).
 3. G1 snapping: at each joint whose incoming and outgoing handles differ in direction by
    less than the threshold, both handles are rotated onto their length-weighted bisector
    (P - Cb + Ca - P) keeping their lengths; the change is kept only if both adjacent
@@ -60,7 +62,7 @@ RIDGE = 1e-6
 # ---------------------------------------------------------------------------------------
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _seg_dist2(px, py, ax, ay, bx, by):
     """Squared distance from (px, py) to the segment a-b."""
     ex = bx - ax
@@ -78,7 +80,7 @@ def _seg_dist2(px, py, ax, ay, bx, by):
     return dx * dx + dy * dy
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _lsq(q, w, i, j, u, c):
     """Least-squares inner controls of the span i..j for parameters u; writes c[0:4]."""
     p0x = q[i, 0]
@@ -125,7 +127,7 @@ def _lsq(q, w, i, j, u, c):
     c[3] = (a11 * r2y - a12 * r1y) / det
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _tdm(q, w, i, j, u, c, a):
     """One Gauss-Newton step of tangent distance minimisation for the inner controls c
     (updated in place), linearised at the foot parameters u on the current curve. a is a
@@ -221,7 +223,7 @@ def _tdm(q, w, i, j, u, c, a):
     _solve4(a, c)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _solve4(a, x):
     """Solve the symmetric positive definite system a[:, :4] x = a[:, 4] (a is destroyed)
     by Gaussian elimination without pivoting."""
@@ -237,7 +239,7 @@ def _solve4(a, x):
         x[r] = v / a[r, r]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _newton(q, w, i, j, u, c, limit):
     """One Newton step of every inner parameter towards its point's foot on the curve,
     clamped to [0, 1] and to the previous parameter (parameters never decrease). Returns
@@ -298,55 +300,68 @@ def _newton(q, w, i, j, u, c, limit):
     return worst
 
 
-@njit(cache=True, error_model="numpy")
-def _near_edge(q, tol, i, j, k, x, y, margin):
-    """Is (x, y) within max(tol[e], tol[e+1]) - margin of some edge e of the span i..j?
-    Edges are tried outwards from k, the edge whose stretch of curve the point is on."""
-    for r in range(j - i):
-        for e in (k - r, k + r):
-            if e < i or e >= j or (r == 0 and e != k - r):
-                continue
-            lim = max(tol[e], tol[e + 1]) - margin
-            if lim >= 0.0 and _seg_dist2(
-                x, y, q[e, 0], q[e, 1], q[e + 1, 0], q[e + 1, 1]
-            ) <= lim * lim:
-                return True
-        if k - r < i and k + r >= j - 1:
-            break
-    return False
+@njit(cache=True, nogil=True, error_model="numpy")
+def _within(q, tol, e, x, y, margin):
+    """Is (x, y) within max(tol[e], tol[e+1]) - margin of the polyline edge e?"""
+    lim = max(tol[e], tol[e + 1]) - margin
+    return lim >= 0.0 and _seg_dist2(x, y, q[e, 0], q[e, 1], q[e + 1, 0], q[e + 1, 1]) <= lim * lim
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
+def _samples(tol, u, curv, k):
+    """Samples strictly inside the interval u[k]..u[k+1], and their margin: enough that
+    the curve's excursion from the chords between them, curv * delta^2 / 8, stays below
+    an eighth of the interval's tolerance."""
+    tl = max(tol[k], tol[k + 1])
+    du = u[k + 1] - u[k]
+    need = du * math.sqrt(curv / tl)
+    ns = 1
+    if need >= MAX_SAMPLES:
+        ns = MAX_SAMPLES
+    elif need > 1.0:
+        ns = int(need)
+    delta = du / (ns + 1)
+    return ns, curv * (delta * delta) / 8.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _bulge_ok(q, tol, i, j, u, c):
-    """True when the whole curve stays inside the ribbon of the span's edges: samples at
-    every u[k] and between them must lie within their edge's tolerance less a margin that
-    bounds how far the curve strays from the chord between neighbouring samples."""
+    """True when the whole curve stays inside the ribbon of the span's edges and runs
+    forwards along them.
+
+    The curve is sampled at every u[k] and between them. Between two neighbouring samples
+    it strays from their chord by at most a margin (from a bound on |B''|), and the
+    distance to an edge is convex along the chord, so it is enough that both samples lie
+    within one same edge's tolerance less the margin. Edges are searched outwards from
+    the interval's own edge, after the edge that served the previous pair.
+    """
     p0x = q[i, 0]
     p0y = q[i, 1]
     p3x = q[j, 0]
     p3y = q[j, 1]
-    # |B''(t)| <= curv; between samples delta apart in t the curve is within
-    # curv * delta^2 / 8 of their chord, and the distance to an edge is convex along chords
+    # |B''(t)| <= curv, so between samples delta apart in t the curve is within
+    # curv * delta^2 / 8 of their chord
     ax = p0x - 2.0 * c[0] + c[2]
     ay = p0y - 2.0 * c[1] + c[3]
     bx = c[0] - 2.0 * c[2] + p3x
     by = c[1] - 2.0 * c[3] + p3y
     curv = 6.0 * math.sqrt(max(ax * ax + ay * ay, bx * bx + by * by))
-    prev = 0.0
+    x0 = p0x  # the previous sample, its margin, and an edge near it (or -1)
+    y0 = p0y
+    ns, margin = _samples(tol, u, curv, i)
+    mg0 = margin
+    cur = -1
+    ns_next = ns
+    margin_next = margin
     for k in range(i, j):
-        tl = max(tol[k], tol[k + 1])
         du = u[k + 1] - u[k]
-        # enough samples that the margin stays below tl / 8
-        need = du * math.sqrt(curv / tl)
-        ns = 1
-        if need >= MAX_SAMPLES:
-            ns = MAX_SAMPLES
-        elif need > 1.0:
-            ns = int(need)
-        delta = du / (ns + 1)
-        margin = curv * delta * delta / 8.0
-        for m in range(0 if k > i else 1, ns + 1):
-            t = u[k] + du * m / (ns + 1)
+        # the sample at u[k+1] serves both its intervals: the larger margin
+        end_margin = margin
+        if k + 1 < j:
+            ns_next, margin_next = _samples(tol, u, curv, k + 1)
+            end_margin = max(margin, margin_next)
+        for m in range(1, ns + 2):
+            t = u[k] + du * m / (ns + 1) if m <= ns else u[k + 1]
             s = 1.0 - t
             b0 = s * s * s
             b1 = 3.0 * s * s * t
@@ -354,14 +369,37 @@ def _bulge_ok(q, tol, i, j, u, c):
             b3 = t * t * t
             x = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x
             y = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y
-            mg = max(margin, prev) if m == 0 else margin
-            if not _near_edge(q, tol, i, j, k, x, y, mg):
-                return False
-        prev = margin
+            if m <= ns:
+                # no backtracking: between polyline points the curve runs the edge's way,
+                # so a fit cannot tie a loop (a fish-tail) inside the ribbon
+                dx = s * s * (c[0] - p0x) + 2.0 * s * t * (c[2] - c[0]) + t * t * (p3x - c[2])
+                dy = s * s * (c[1] - p0y) + 2.0 * s * t * (c[3] - c[1]) + t * t * (p3y - c[3])
+                if dx * (q[k + 1, 0] - q[k, 0]) + dy * (q[k + 1, 1] - q[k, 1]) < 0.0:
+                    return False
+            mg = margin if m <= ns else end_margin
+            if cur < 0 or not _within(q, tol, cur, x, y, mg):
+                cur = -1
+                for r in range(j - i):
+                    for e in (k - r, k + r):
+                        if e < i or e >= j or (r == 0 and e != k - r):
+                            continue
+                        if _within(q, tol, e, x, y, mg) and _within(q, tol, e, x0, y0, mg0):
+                            cur = e
+                            break
+                    if cur >= 0 or (k - r < i and k + r >= j - 1):
+                        break
+                if cur < 0:
+                    return False
+            x0 = x
+            y0 = y
+            mg0 = mg
+        if k + 1 < j:
+            ns = ns_next
+            margin = margin_next
     return True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _straight(q, i, j, c):
     """Inner controls of the straight segment q[i]-q[j], at its thirds."""
     c[0] = q[i, 0] + (q[j, 0] - q[i, 0]) / 3.0
@@ -370,7 +408,7 @@ def _straight(q, i, j, c):
     c[3] = q[i, 1] + 2.0 * (q[j, 1] - q[i, 1]) / 3.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _fit_span(q, tol, w, cum, i, j, u, c, work):
     """Fit the span i..j; True when it passes (then c holds the controls, u[i..j] the
     parameters). work is a (4, 5) scratch array."""
@@ -400,7 +438,7 @@ def _fit_span(q, tol, w, cum, i, j, u, c, work):
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _check_fixed(q, tol, w, i, j, u, c):
     """Does the cubic with controls c still fit the span i..j? Reparameterises u first."""
     # a joint's point is shared by two segments: its parameter is 0 in one, 1 in the other
@@ -414,7 +452,7 @@ def _check_fixed(q, tol, w, i, j, u, c):
     return _bulge_ok(q, tol, i, j, u, c)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _snap_joint(q, tol, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
     """Snap the joint between segment a (incoming) and b (outgoing) if it qualifies and
     both segments still fit. ut, ca, cb are scratch."""
@@ -462,7 +500,7 @@ def _snap_joint(q, tol, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
         ctrl[b, k] = cb[k]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _fit_open(
     q, tol, w, n, closed, cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
 ):
@@ -521,7 +559,7 @@ def _fit_open(
     return m
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _start_index(pts, o, n):
     """Index (from o) of the sharpest turn of the closed polyline pts[o:o+n] (the first
     one on ties)."""
@@ -542,7 +580,7 @@ def _start_index(pts, o, n):
     return ibest
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def fit_many_kernel(points, tol, offsets, closed, cos_snap):
     """Fit every polyline; returns (chains (P, 2), chain_offsets (K+1,) int64)."""
     npoly = offsets.shape[0] - 1
@@ -727,17 +765,16 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     need = du * np.sqrt(curv / tl)
     ns = np.where(need > 1.0, np.minimum(need, MAX_SAMPLES).astype(np.int64), 1)
     margin = curv * (du / (ns + 1)) ** 2 / 8.0
-    # samples: t = u[k] + du[k] * m / (ns[k] + 1), m = 0 .. ns[k] (m = 0 skipped for k = 0,
-    # where the curve starts on q[i]); the sample at u[k] takes the larger adjacent margin
-    first = np.ones(j - i, np.int64)
-    first[1:] = 0
-    count = ns + 1 - first
-    k = np.repeat(np.arange(j - i), count)
-    m = np.arange(len(k)) - np.repeat(np.cumsum(count) - count, count) + first[k]
-    x = _eval_ref(p0, c, p3, u[i:j][k] + du[k] * m / (ns[k] + 1))
-    mg = margin[k].copy()
-    at_u = (m == 0) & (k > 0)
-    mg[at_u] = np.maximum(margin[k[at_u]], margin[k[at_u] - 1])
+    # samples in curve order: t = 0, then for each interval k the inner ones
+    # u[k] + du[k] * m / (ns[k] + 1), m = 1 .. ns[k], then u[k+1]; a sample at u[k] takes
+    # the larger margin of its two intervals
+    k = np.repeat(np.arange(j - i), ns + 1)
+    m = np.arange(len(k)) - np.repeat(np.cumsum(ns + 1) - (ns + 1), ns + 1) + 1
+    inner = m <= ns[k]
+    t = np.where(inner, u[i:j][k] + du[k] * m / (ns[k] + 1), u[i + 1 : j + 1][k])
+    x = _eval_ref(p0, c, p3, np.concatenate([[u[i]], t]))
+    ends = np.concatenate([margin[:1], np.maximum(margin[:-1], margin[1:]), margin[-1:]])
+    mg = np.concatenate([[margin[0]], np.where(inner, margin[k], ends[k + 1])])
     a, e = q[i:j], q[i + 1 : j + 1] - q[i:j]
     ll = e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1]
     w = x[:, None, :] - a[None]
@@ -747,7 +784,18 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     dx = a[:, 0] + h * e[:, 0] - x[:, None, 0]
     dy = a[:, 1] + h * e[:, 1] - x[:, None, 1]
     lim = tl[None, :] - mg[:, None]
-    return bool(np.all(np.any((lim >= 0.0) & (dx * dx + dy * dy <= lim * lim), axis=1)))
+    near = (lim >= 0.0) & (dx * dx + dy * dy <= lim * lim)  # (samples, edges)
+    # every two neighbouring samples near one same edge
+    inside = bool(np.all(np.any(near[:-1] & near[1:], axis=1)))
+    # no backtracking between polyline points (inner samples): B'(t) . edge >= 0
+    s_ = 1.0 - t
+    d = (
+        (s_ * s_)[:, None] * (c1 - p0)[None]
+        + (2.0 * s_ * t)[:, None] * (c2 - c1)[None]
+        + (t * t)[:, None] * (p3 - c2)[None]
+    )
+    fwd = d[:, 0] * e[k, 0] + d[:, 1] * e[k, 1]
+    return inside and bool(np.all(fwd[inner] >= 0.0))
 
 
 def _fit_span_ref(q, tol, cum, i, j, u):
