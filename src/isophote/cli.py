@@ -322,16 +322,12 @@ def _raster_extensions():
     return FORMATS
 
 
-def _probe_format(path, depth: int) -> None:
-    """Fail now, not after a long render, if the output format cannot hold this depth."""
-    import tempfile
+def _probe_format(path, depth: int, channels: int = 3) -> None:
+    """Fail now, not after a long render, if the output format cannot hold this depth (or,
+    once the image is loaded, its alpha channel)."""
+    from .imageio import check_format
 
-    import numpy as np
-
-    from .imageio import write_image
-
-    with tempfile.TemporaryDirectory(prefix="isophote-probe-") as folder:
-        write_image(os.path.join(folder, "probe" + os.path.splitext(path)[1]), np.zeros((1, 1, 3)), depth=depth)
+    check_format(path, depth, channels)
 
 
 def _load(path):
@@ -399,6 +395,7 @@ def cmd_render(args) -> int:
     t0 = time.perf_counter()
     progress(f"reading {args.input}")
     vi = _load(args.input)
+    _probe_format(args.output, opts.depth, len(vi.channels))  # Y[A] or YUV[A]: 1 to 4 samples
     vp = viewport(vi, opts)  # size and crop checked before any work
     reference = None
     if args.compare is not None:

@@ -1,22 +1,62 @@
 """Raster input and output: the only module that imports Pillow.
 
-Reading returns float64 samples on the 0..255 scale whatever the bit depth (16-bit values
-are divided by 257 and keep their fraction), with EXIF orientation applied. Writing is
-atomic: a temporary file in the destination folder, renamed over the target when complete.
+Reading
+    :func:`read_image` returns float64 samples on the 0..255 scale whatever the bit depth
+    (16-bit values are divided by 257 and keep their fraction), with EXIF orientation
+    applied. 16-bit sources stay 16-bit: grey, grey + alpha, RGB and RGBA PNG and TIFF are
+    read at full precision (Pillow itself keeps only the high byte of multi-channel 16-bit
+    images; see :func:`_decode_16bit`). Files come from strangers, so:
+
+    - only the formats in READ_FORMATS are opened (no Ghostscript-backed EPS, no rarely
+      used parsers); anything else is "not an image";
+    - the declared size is checked against MAX_INPUT_PIXELS before any pixel is decoded
+      (a decompression bomb costs a header read, not its declared memory);
+    - every failure is an :class:`~isophote.errors.InputError` (or a
+      :class:`~isophote.errors.LimitError` for a size over the limit) with a one-line
+      reason; no other exception escapes for bad data;
+    - an animated or multi-page file gives its first frame, and ``Raster.note`` says so.
+
+Writing
+    :func:`write_image` is atomic: a temporary file in the destination folder, flushed to
+    disk, given the permissions a new file would get (``0o666 & ~umask``, or the mode of the
+    file it replaces), then renamed over the target. A failed write leaves any existing file
+    untouched and no temporary file behind. 16-bit PNG and TIFF are written by hand (Pillow
+    cannot build 16-bit colour images, and Pillow 13 no longer builds 16-bit grey ones from
+    arrays); everything else goes through Pillow. The output is deterministic: the same
+    samples give the same bytes.
 """
 
 from __future__ import annotations
 
 import os
+import stat
+import struct
+import sys
 import tempfile
 import warnings
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError, LimitError, OptionError
+from .errors import InputError, IsophoteError, LimitError, OptionError
 
 MAX_INPUT_PIXELS = 100_000_000  # decompression-bomb guard: 100 MP (10000 x 10000)
+
+# The Pillow plugins trusted with strangers' files: the common photographic formats. EPS
+# (which runs Ghostscript), and the long tail of rarely used parsers, are left out.
+READ_FORMATS = ("PNG", "JPEG", "MPO", "TIFF", "WEBP", "BMP", "GIF", "PPM", "TGA", "QOI", "AVIF")
+
+# What Pillow raises, besides OSError, on malformed data (found by fuzzing its parsers).
+_PILLOW_ERRORS = (
+    OSError, SyntaxError, ValueError, EOFError, struct.error, IndexError, KeyError, TypeError,
+    ZeroDivisionError, OverflowError, MemoryError, RecursionError, zlib.error,
+)
+
+# Multi-channel 16-bit raw modes: Pillow decodes them to 8-bit images (the high byte).
+_RAW16 = {"RGB;16B", "RGB;16L", "RGB;16N", "RGBA;16B", "RGBA;16L", "RGBA;16N"}
+_RAW16_CODECS = {"zip", "raw", "libtiff"}  # decoders that only unpack: PNG's and TIFF's
+_OTHER_BYTE = {"B": "L", "L": "B", "N": "B" if sys.byteorder == "little" else "L"}
 
 
 @dataclass(frozen=True)
@@ -27,76 +67,233 @@ class Raster:
     depth: int  # 8 or 16
     grey: bool
     alpha: bool
-    note: str = ""  # e.g. "animated: first frame used"
+    note: str = ""  # e.g. "GIF has 3 frames: first frame used"
+
+
+# =============================================================================================
+# Reading
+# =============================================================================================
 
 
 def read_image(path) -> Raster:
-    """Read PNG, JPEG, TIFF, WebP, BMP (and what else Pillow reads) into a Raster."""
-    from PIL import Image, ImageOps, UnidentifiedImageError
+    """Read PNG, JPEG, TIFF, WebP, BMP, GIF, PPM/PGM, TGA, QOI (READ_FORMATS) into a Raster.
 
-    Image.MAX_IMAGE_PIXELS = MAX_INPUT_PIXELS
+    Raises
+    ------
+    InputError
+        The file is missing, unreadable, empty, truncated, corrupt or not an image.
+    LimitError
+        The image declares more than MAX_INPUT_PIXELS pixels.
+    """
+    name = os.fspath(path)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", Image.DecompressionBombWarning)
-            with Image.open(path) as im:
-                note = ""
-                if getattr(im, "n_frames", 1) > 1:
-                    note = f"animated ({im.n_frames} frames): first frame used"
-                    im.seek(0)
-                w, h = im.size
-                if w < 1 or h < 1:
-                    raise InputError(f"{path}: image has no pixels")
-                if w * h > MAX_INPUT_PIXELS:
-                    raise LimitError(f"{path}: {w}x{h} exceeds the {MAX_INPUT_PIXELS} pixel limit")
-                im.load()
-                im = ImageOps.exif_transpose(im)
-                return _to_raster(im, note)
-    except (InputError, LimitError):
+        samples, maximum, grey, alpha, orientation, note = _decode(name)
+    except IsophoteError:
         raise
     except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
+        raise InputError(f"{name}: no such file") from None
     except IsADirectoryError:
-        raise InputError(f"{path}: is a directory") from None
+        raise InputError(f"{name}: is a directory") from None
     except PermissionError:
-        raise InputError(f"{path}: permission denied") from None
-    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as e:
-        raise LimitError(f"{path}: {e}") from None
-    except UnidentifiedImageError:
-        raise InputError(f"{path}: not an image Pillow can read") from None
-    except (OSError, SyntaxError, ValueError, EOFError) as e:
-        raise InputError(f"{path}: cannot read image ({e})") from None
+        raise InputError(f"{name}: permission denied") from None
+    except _bomb_errors() as e:
+        raise LimitError(f"{name}: {_one_line(e)}") from None
+    except _unidentified() as e:
+        raise InputError(f"{name}: not an image in a format isophote reads ({', '.join(READ_FORMATS)})") from None
+    except _PILLOW_ERRORS as e:
+        raise InputError(f"{name}: cannot read image ({type(e).__name__}: {_one_line(e)})") from None
+    pixels = _orient(samples, orientation).astype(np.float64)
+    depth = 8
+    if maximum == 65535:
+        pixels /= 257.0
+        depth = 16
+    return Raster(np.ascontiguousarray(pixels), depth, grey, alpha, note)
 
 
-def _to_raster(im, note: str) -> Raster:
+def _one_line(e) -> str:
+    text = str(e).strip().splitlines()
+    return text[0] if text else type(e).__name__
+
+
+def _bomb_errors():
+    from PIL import Image
+
+    return (Image.DecompressionBombError, Image.DecompressionBombWarning)
+
+
+def _unidentified():
+    from PIL import UnidentifiedImageError
+
+    return (UnidentifiedImageError,)
+
+
+def _read_formats() -> list:
+    from PIL import Image
+
+    Image.init()
+    return [f for f in READ_FORMATS if f in Image.OPEN]
+
+
+def _decode(path):
+    """Everything that touches Pillow: (samples (H, W, C), 255 or 65535, grey, alpha,
+    EXIF orientation, note). Samples are integers (or floats for float images) on the
+    0..maximum scale, not yet oriented."""
+    from PIL import Image
+
+    Image.MAX_IMAGE_PIXELS = MAX_INPUT_PIXELS  # Pillow checks at open, before decoding
+    formats = _read_formats()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        with Image.open(path, formats=formats) as im:
+            w, h = im.size
+            if w < 1 or h < 1:
+                raise InputError(f"{path}: image has no pixels ({w}x{h})")
+            if w * h > MAX_INPUT_PIXELS:
+                raise LimitError(f"{path}: {w}x{h} exceeds the {MAX_INPUT_PIXELS:,}-pixel limit")
+            note = ""
+            frames = getattr(im, "n_frames", 1)
+            if frames > 1:
+                note = f"{im.format} has {frames} frames (animated or multi-page): first frame used"
+                im.seek(0)
+            fmt = im.format
+            if im.mode in ("RGB", "RGBA") and _rawmodes(im) == {"LA;16B"}:
+                # 16-bit grey + alpha PNG: Pillow's only decoder for it keeps the high bytes.
+                # Unpacked as 8-bit RGBA instead, its four bytes come through unchanged.
+                im.tile = [_with_rawmode(t, "RGBA") for t in im.tile]
+                im.load()
+                b = np.asarray(im).astype(np.uint16)
+                samples = np.stack([b[..., 0] * 256 + b[..., 1], b[..., 2] * 256 + b[..., 3]], axis=-1)
+                out = (samples, 65535, True, True)
+            elif im.mode in ("RGB", "RGBA") and _is_raw16(im):
+                out = _decode_16bit(im, path, fmt, formats)
+            else:
+                im.load()
+                out = _decode_plain(im)
+            orientation = _orientation(im)
+    return (*out, orientation, note)
+
+
+def _is_raw16(im) -> bool:
+    tiles = im.tile or []
+    return bool(tiles) and all(t.codec_name in _RAW16_CODECS and _rawmode(t) in _RAW16 for t in tiles)
+
+
+def _rawmodes(im) -> set:
+    return {_rawmode(t) for t in (im.tile or [])}
+
+
+def _rawmode(tile) -> str:
+    args = tile.args
+    return args if isinstance(args, str) else (args[0] if args else "")
+
+
+def _with_rawmode(tile, rawmode):
+    args = tile.args
+    return tile._replace(args=rawmode if isinstance(args, str) else (rawmode,) + tuple(args[1:]))
+
+
+def _decode_16bit(im, path, fmt, formats):
+    """16-bit RGB(A): Pillow unpacks the high byte of each sample. Decoding the file a second
+    time with the raw mode of the other byte order gives the low bytes (the decompression,
+    PNG filters and interlacing all stay Pillow's)."""
+    from PIL import Image
+
+    modes = _rawmodes(im)  # loading clears the tiles
+    im.load()
+    hi = np.asarray(im).astype(np.uint16)
+    with Image.open(path, formats=[fmt] if fmt in formats else formats) as again:
+        if getattr(again, "n_frames", 1) > 1:
+            again.seek(0)
+        if again.size != im.size or again.mode != im.mode or _rawmodes(again) != modes:
+            raise InputError(f"{path}: the file changed while it was being read")
+        again.tile = [_with_rawmode(t, _rawmode(t)[:-1] + _OTHER_BYTE[_rawmode(t)[-1]]) for t in again.tile]
+        again.load()
+        lo = np.asarray(again).astype(np.uint16)
+    samples = (hi << 8) | lo
+    alpha = im.mode == "RGBA"
+    key = im.info.get("transparency")
+    if not alpha and isinstance(key, tuple) and len(key) == 3:
+        samples = _keyed_alpha(samples, key, 65535)
+        alpha = True
+    return samples, 65535, False, alpha
+
+
+def _decode_plain(im):
+    """Every other mode, from a loaded image: (samples, maximum, grey, alpha)."""
     mode = im.mode
-    if mode in ("I;16", "I;16B", "I;16L", "I;16N", "I"):
-        a = np.asarray(im, dtype=np.float64)
-        if mode == "I" and a.max(initial=0) <= 255 and im.format not in ("PNG", "TIFF"):
-            return Raster(a[..., None], 8, True, False, note)
-        return Raster(np.clip(a, 0, 65535)[..., None] / 257.0, 16, True, False, note)
+    key = im.info.get("transparency")
+    if mode.startswith("I;16") or mode == "I":
+        a = np.asarray(im).astype(np.int64)
+        if mode == "I" and im.format not in ("PNG", "TIFF") and a.max(initial=0) <= 255:
+            s, maximum = a.astype(np.uint16), 255
+        else:
+            s, maximum = np.clip(a, 0, 65535).astype(np.uint16), 65535
+        s = s[..., None]
+        if isinstance(key, int):
+            return _keyed_alpha(s, (key,), maximum), maximum, True, True
+        return s, maximum, True, False
     if mode == "F":
         a = np.asarray(im, dtype=np.float64)
-        hi = 1.0 if a.max(initial=0) <= 1.0 else 255.0
-        return Raster(np.clip(a / hi * 255.0, 0, 255)[..., None], 16, True, False, note)
-    if mode in ("1", "L", "P", "PA", "LA", "RGB", "RGBA", "CMYK", "YCbCr", "LAB", "HSV", "RGBX", "La", "RGBa"):
-        has_alpha = mode in ("LA", "La", "RGBA", "RGBa", "PA") or (
-            mode == "P" and "transparency" in im.info
-        )
-        grey = mode in ("1", "L", "LA", "La")
-        if mode == "P":
-            im = im.convert("RGBA" if has_alpha else "RGB")
-            grey = False
-        target = ("LA" if has_alpha else "L") if grey else ("RGBA" if has_alpha else "RGB")
-        if im.mode != target:
-            im = im.convert(target)
-        a = np.asarray(im, dtype=np.float64)
-        if a.ndim == 2:
-            a = a[..., None]
-        return Raster(a, 8, grey, has_alpha, note)
-    # Anything else (e.g. 16-bit RGB through a plugin): let Pillow convert to RGB(A).
-    im = im.convert("RGBA" if "A" in mode else "RGB")
-    a = np.asarray(im, dtype=np.float64)
-    return Raster(a, 8, False, a.shape[2] == 4, note)
+        a = np.where(np.isfinite(a), a, 0.0)
+        hi = 1.0 if a.max(initial=0) <= 1.0 else 255.0  # 0..1 or 0..255 floats
+        return (np.clip(a / hi, 0.0, 1.0) * 65535.0)[..., None], 65535, True, False
+    grey = mode in ("1", "L", "LA", "La")
+    alpha = mode in ("LA", "La", "RGBA", "RGBa", "PA") or (mode == "P" and key is not None)
+    if grey:
+        target = "LA" if alpha else "L"
+    else:
+        target = "RGBA" if alpha else "RGB"
+    if mode != target:
+        im = im.convert(target)
+    s = np.asarray(im).astype(np.uint8)
+    if s.ndim == 2:
+        s = s[..., None]
+    if not alpha and mode in ("L", "RGB") and key is not None:
+        key = (key,) if isinstance(key, int) else key
+        if isinstance(key, tuple) and len(key) == s.shape[2]:
+            return _keyed_alpha(s, key, 255), 255, grey, True
+    return s, 255, grey, alpha
+
+
+def _keyed_alpha(samples, key, maximum):
+    """A colour-key transparency (PNG tRNS for grey or RGB) as an alpha channel."""
+    clear = np.all(samples == np.asarray(key, samples.dtype), axis=-1)
+    alpha = np.where(clear, 0, maximum).astype(samples.dtype)
+    return np.concatenate([samples, alpha[..., None]], axis=-1)
+
+
+def _orientation(im) -> int:
+    """The EXIF orientation (1..8); 1 when absent or unreadable (a broken EXIF block is not
+    worth refusing a photograph for)."""
+    try:
+        value = im.getexif().get(0x0112, 1)
+    except _PILLOW_ERRORS:
+        return 1
+    return value if isinstance(value, int) and 1 <= value <= 8 else 1
+
+
+def _orient(a: np.ndarray, orientation: int) -> np.ndarray:
+    """Apply an EXIF orientation to (H, W, C) samples, as Pillow's ``exif_transpose`` does."""
+    if orientation == 2:  # mirrored left-right
+        return a[:, ::-1]
+    if orientation == 3:  # rotated 180
+        return a[::-1, ::-1]
+    if orientation == 4:  # mirrored top-bottom
+        return a[::-1, :]
+    if orientation == 5:  # transposed
+        return a.transpose(1, 0, 2)
+    if orientation == 6:  # the camera was turned clockwise: turn the picture clockwise
+        return np.rot90(a, -1)
+    if orientation == 7:  # transversed
+        return a[::-1, ::-1].transpose(1, 0, 2)
+    if orientation == 8:
+        return np.rot90(a, 1)
+    return a
+
+
+# =============================================================================================
+# Writing
+# =============================================================================================
 
 
 FORMATS = {
@@ -108,65 +305,69 @@ FORMATS = {
     ".webp": "WEBP",
     ".bmp": "BMP",
 }
+DEPTH16_FORMATS = ("PNG", "TIFF")
+ALPHA_FORMATS = ("PNG", "TIFF", "WEBP")
+
+
+def check_format(path, depth: int = 8, channels: int = 3) -> str:
+    """The Pillow format name for ``path``'s extension; OptionError if it cannot hold
+    ``depth``-bit samples with ``channels`` channels (1 grey, 2 grey+alpha, 3 RGB, 4 RGBA)."""
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    fmt = FORMATS.get(ext)
+    if fmt is None:
+        raise OptionError(
+            f"{os.fspath(path)}: unknown output format {ext or '(no extension)'!r} "
+            f"(use {', '.join(sorted(FORMATS))})"
+        )
+    if depth not in (8, 16):
+        raise OptionError(f"depth must be 8 or 16, got {depth}")
+    if depth == 16 and fmt not in DEPTH16_FORMATS:
+        raise OptionError(f"{fmt} holds 8 bits per channel; use .png or .tif for --depth 16")
+    if channels in (2, 4) and fmt not in ALPHA_FORMATS:
+        raise OptionError(f"{fmt} holds no alpha channel and this image has one; use .png, .tif or .webp")
+    return fmt
 
 
 def write_image(path, pixels: np.ndarray, depth: int = 8, quality: int = 95) -> None:
-    """Write (H, W, C) float samples on 0..255 (C in 1..4) atomically.
+    """Write (H, W) or (H, W, C) float samples on 0..255 (C in 1..4) atomically.
 
-    depth 16 is kept by PNG and TIFF (grey, or RGB(A) as 16-bit TIFF/PNG); other formats
-    are 8-bit and refuse depth 16 with an OptionError.
+    depth 16 is kept by PNG and TIFF; other formats are 8-bit and refuse depth 16 with an
+    OptionError, as JPEG and BMP refuse an alpha channel.
     """
-    from PIL import Image
-
-    ext = os.path.splitext(str(path))[1].lower()
-    fmt = FORMATS.get(ext)
-    if fmt is None:
-        raise OptionError(f"{path}: unknown output format {ext!r} (use {', '.join(sorted(FORMATS))})")
     a = np.asarray(pixels, dtype=np.float64)
     if a.ndim == 2:
         a = a[..., None]
+    if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ValueError(f"pixels must be (H, W) or (H, W, 1..4) with H, W >= 1, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError("pixels contain NaN or infinite values")
     c = a.shape[2]
-    if depth == 16 and fmt not in ("PNG", "TIFF"):
-        raise OptionError(f"{fmt} holds 8 bits per channel; use .png or .tif for --depth 16")
-    if depth == 8:
-        q = np.clip(np.rint(a), 0, 255).astype(np.uint8)
-        mode = {1: "L", 2: "LA", 3: "RGB", 4: "RGBA"}[c]
-        im = Image.fromarray(q[..., 0] if c == 1 else q, mode=mode)
-        data = None
-    else:
+    fmt = check_format(path, depth, c)
+    if depth == 16:
         q = np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
-        if c == 1:
-            im = Image.fromarray(q[..., 0].astype("<u2"), mode="I;16")
-            data = None
-        else:
-            im, data = None, q
+        data = _png16(q) if fmt == "PNG" else _tiff16(q)
+        _atomic_write(path, lambda f: f.write(data))
+        return
+    from PIL import Image
+
+    q = np.clip(np.rint(a), 0, 255).astype(np.uint8)
+    im = Image.fromarray(q[..., 0] if c == 1 else q)
     kwargs = {}
     if fmt in ("JPEG", "WEBP"):
         kwargs["quality"] = quality
     if fmt == "PNG":
         kwargs["compress_level"] = 6
-    _atomic_write(path, lambda f: _save(im, data, fmt, f, kwargs))
-
-
-def _save(im, data16, fmt, f, kwargs):
-    if im is not None:
-        im.save(f, format=fmt, **kwargs)
-        return
-    # 16-bit colour: Pillow cannot build RGB;16 images, so PNG is written by hand-rolled
-    # zlib chunks and TIFF through its raw strip layout.
-    if fmt == "PNG":
-        f.write(_png16(data16))
-    else:
-        f.write(_tiff16(data16))
+    _atomic_write(path, lambda f: im.save(f, format=fmt, **kwargs))
 
 
 def _png16(a: np.ndarray) -> bytes:
-    import struct
-    import zlib
-
+    """A 16-bit PNG of (H, W) or (H, W, C) uint16 samples (C = 1 grey, 2 grey+alpha, 3 RGB,
+    4 RGBA): the signature, IHDR, one IDAT of unfiltered rows, IEND (PNG spec, 11.2)."""
+    if a.ndim == 2:
+        a = a[..., None]
     h, w, c = a.shape
-    colour_type = {2: 4, 3: 2, 4: 6}[c]
-    raw = a.astype(">u2").reshape(h, w * c)
+    colour_type = {1: 0, 2: 4, 3: 2, 4: 6}[c]
+    raw = np.ascontiguousarray(a, dtype=">u2").reshape(h, w * c)
     rows = np.concatenate([np.zeros((h, 1), np.uint8), raw.view(np.uint8).reshape(h, -1)], axis=1)
 
     def chunk(tag, payload):
@@ -183,30 +384,36 @@ def _png16(a: np.ndarray) -> bytes:
 
 
 def _tiff16(a: np.ndarray) -> bytes:
-    import struct
-
+    """A 16-bit little-endian baseline TIFF, one uncompressed strip, of (H, W) or (H, W, C)
+    uint16 samples: grey (BlackIsZero) or RGB, with unassociated alpha as an extra sample."""
+    if a.ndim == 2:
+        a = a[..., None]
     h, w, c = a.shape
-    pix = a.astype("<u2").tobytes()
+    pix = np.ascontiguousarray(a, dtype="<u2").tobytes()
     entries = [
         (256, 4, 1, w),  # ImageWidth
         (257, 4, 1, h),  # ImageLength
-        (258, 3, c, None),  # BitsPerSample (array)
+        (258, 3, c, None),  # BitsPerSample, 16 per sample
         (259, 3, 1, 1),  # Compression: none
-        (262, 3, 1, 2),  # Photometric: RGB
+        (262, 3, 1, 1 if c <= 2 else 2),  # Photometric: BlackIsZero (grey) or RGB
         (273, 4, 1, None),  # StripOffsets
         (277, 3, 1, c),  # SamplesPerPixel
         (278, 4, 1, h),  # RowsPerStrip
         (279, 4, 1, len(pix)),  # StripByteCounts
         (284, 3, 1, 1),  # PlanarConfig: chunky
     ]
-    if c == 4:
+    if c in (2, 4):
         entries.append((338, 3, 1, 2))  # ExtraSamples: unassociated alpha
     n = len(entries)
     ifd_off = 8
+    bps = struct.pack("<" + "H" * c, *([16] * c)) if c > 2 else b""  # else inside the entry
     bps_off = ifd_off + 2 + 12 * n + 4
-    pix_off = bps_off + 2 * c
+    pix_off = bps_off + len(bps)  # even, as TIFF asks of offsets
     out = bytearray(b"II*\x00" + struct.pack("<I", ifd_off) + struct.pack("<H", n))
     for tag, typ, count, value in entries:
+        if tag == 258 and c <= 2:
+            out += struct.pack("<HHIHH", tag, typ, count, 16, 16 if c == 2 else 0)
+            continue
         if tag == 258:
             value = bps_off
         if tag == 273:
@@ -215,22 +422,44 @@ def _tiff16(a: np.ndarray) -> bytes:
             out += struct.pack("<HHIHH", tag, typ, count, value, 0)
         else:
             out += struct.pack("<HHII", tag, typ, count, value)
-    out += struct.pack("<I", 0)
-    out += struct.pack("<" + "H" * c, *([16] * c))
+    out += struct.pack("<I", 0)  # no next IFD
+    out += bps
     out += pix
     return bytes(out)
 
 
+def _new_file_mode(path: str) -> int:
+    """The permissions the output should get: those of the file it replaces, else the ones
+    a plain ``open(path, "w")`` would give (0o666 less the umask)."""
+    try:
+        st = os.stat(path)
+        if stat.S_ISREG(st.st_mode):
+            return stat.S_IMODE(st.st_mode) & 0o777
+    except OSError:
+        pass
+    mask = os.umask(0o022)  # the only portable way to read the umask is to set it
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def _atomic_write(path, write) -> None:
-    """Write through ``write(fileobj)`` to a temporary file beside ``path``, then rename."""
+    """Write through ``write(fileobj)`` to a temporary file beside ``path``, then rename.
+
+    The temporary file is flushed to disk and given its final permissions before the rename,
+    so ``path`` is either the old file or the complete new one, never a partial file.
+    """
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise InputError(f"{path}: folder {folder} does not exist")
+    mode = _new_file_mode(path)
     fd, tmp = tempfile.mkstemp(prefix=".isophote-", suffix=".tmp", dir=folder)
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -241,4 +470,5 @@ def _atomic_write(path, write) -> None:
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (see :func:`_atomic_write`)."""
     _atomic_write(path, lambda f: f.write(data))

@@ -110,8 +110,9 @@ def seed(band, H, Vc, levels, mode):
     hfx, hfd, hlx, hld, hfs, hls = H
     vfx, vfd, vlx, vld, vfs, vls = Vc
     nr, nc = band.shape
-    F = np.empty((2, NF, nr, nc), np.float32)
-    F[:] = 0.0
+    # stored node-major, so that one node's 12 numbers share a cache line; indexed as
+    # F[side, field, i, j] through a transposed view
+    F = np.zeros((nr, nc, 2, NF), np.float32).transpose((2, 3, 0, 1))
     F[:, D] = np.inf
     for i in range(nr):
         yc = i + 0.5
@@ -277,14 +278,17 @@ def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
 
 
 @njit(cache=True, nogil=True)
-def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, out):
+def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out):
     """Fill values at target samples.
 
     tband (n, m): band of each target sample; xs (m,), ys (n,): their positions in node units.
     labels, dmax, capv: node regions and their cap data (label_nodes, region_caps); ramp: the
-    cap ramp in node units.
+    cap ramp in node units. nv: the fill at the nodes themselves (this function applied to
+    the node grid), or an empty array: a sample whose four surrounding nodes all share its
+    band then interpolates them bilinearly, the others are evaluated exactly.
     out (n, m) float32 receives the values.
     """
+    use_nv = nv.shape[0] == nband.shape[0]
     nr, nc = nband.shape
     nl = levels.shape[0]
     n, m = tband.shape
@@ -307,6 +311,14 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 out[a, bcol] = mid
                 continue
             j0 = int(np.floor(x - 0.5))
+            if use_nv and 0 <= i0 < nr - 1 and 0 <= j0 < nc - 1:
+                if (nband[i0, j0] == b and nband[i0, j0 + 1] == b
+                        and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b):
+                    fx = x - (j0 + 0.5)
+                    fy = y - (i0 + 0.5)
+                    out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[i0, j0] + fx * nv[i0, j0 + 1])
+                                    + fy * ((1.0 - fx) * nv[i0 + 1, j0] + fx * nv[i0 + 1, j0 + 1]))
+                    continue
             reg = -1
             reg_d = np.inf
             best_d0 = np.inf

@@ -63,24 +63,6 @@ RIDGE = 1e-6
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _seg_dist2(px, py, ax, ay, bx, by):
-    """Squared distance from (px, py) to the segment a-b."""
-    ex = bx - ax
-    ey = by - ay
-    ll = ex * ex + ey * ey
-    h = 0.0
-    if ll > 0.0:
-        h = ((px - ax) * ex + (py - ay) * ey) / ll
-        if h < 0.0:
-            h = 0.0
-        elif h > 1.0:
-            h = 1.0
-    dx = ax + h * ex - px
-    dy = ay + h * ey - py
-    return dx * dx + dy * dy
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
 def _lsq(q, w, i, j, u, c):
     """Least-squares inner controls of the span i..j for parameters u; writes c[0:4]."""
     p0x = q[i, 0]
@@ -301,18 +283,44 @@ def _newton(q, w, i, j, u, c, limit):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _within(q, tol, e, x, y, margin):
-    """Is (x, y) within max(tol[e], tol[e+1]) - margin of the polyline edge e?"""
-    lim = max(tol[e], tol[e + 1]) - margin
-    return lim >= 0.0 and _seg_dist2(x, y, q[e, 0], q[e, 1], q[e + 1, 0], q[e + 1, 1]) <= lim * lim
+def _within(q, ed, e, x, y, margin):
+    """Is (x, y) within max(tol[e], tol[e+1]) - margin of the polyline edge e? (ed: see
+    _edges)"""
+    lim = ed[e, 3] - margin
+    if lim < 0.0:
+        return False
+    ax = q[e, 0]
+    ay = q[e, 1]
+    h = ((x - ax) * ed[e, 0] + (y - ay) * ed[e, 1]) * ed[e, 2]
+    if h < 0.0:
+        h = 0.0
+    elif h > 1.0:
+        h = 1.0
+    dx = ax + h * ed[e, 0] - x
+    dy = ay + h * ed[e, 1] - y
+    return dx * dx + dy * dy <= lim * lim
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _samples(tol, u, curv, k):
+def _edges(q, tol, n, ed):
+    """Per polyline edge e of q[:n]: its vector, the inverse of its squared length (0 for
+    a repeated point) and its tolerance max(tol[e], tol[e+1]), in ed[e, 0:4]."""
+    for e in range(n - 1):
+        ex = q[e + 1, 0] - q[e, 0]
+        ey = q[e + 1, 1] - q[e, 1]
+        ll = ex * ex + ey * ey
+        ed[e, 0] = ex
+        ed[e, 1] = ey
+        ed[e, 2] = 1.0 / ll if ll > 0.0 else 0.0
+        ed[e, 3] = max(tol[e], tol[e + 1])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _samples(ed, u, curv, k):
     """Samples strictly inside the interval u[k]..u[k+1], and their margin: enough that
     the curve's excursion from the chords between them, curv * delta^2 / 8, stays below
     an eighth of the interval's tolerance."""
-    tl = max(tol[k], tol[k + 1])
+    tl = ed[k, 3]
     du = u[k + 1] - u[k]
     need = du * math.sqrt(curv / tl)
     ns = 1
@@ -325,7 +333,7 @@ def _samples(tol, u, curv, k):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _bulge_ok(q, tol, i, j, u, c):
+def _bulge_ok(q, ed, i, j, u, c):
     """True when the whole curve stays inside the ribbon of the span's edges and runs
     forwards along them.
 
@@ -348,7 +356,7 @@ def _bulge_ok(q, tol, i, j, u, c):
     curv = 6.0 * math.sqrt(max(ax * ax + ay * ay, bx * bx + by * by))
     x0 = p0x  # the previous sample, its margin, and an edge near it (or -1)
     y0 = p0y
-    ns, margin = _samples(tol, u, curv, i)
+    ns, margin = _samples(ed, u, curv, i)
     mg0 = margin
     cur = -1
     ns_next = ns
@@ -358,7 +366,7 @@ def _bulge_ok(q, tol, i, j, u, c):
         # the sample at u[k+1] serves both its intervals: the larger margin
         end_margin = margin
         if k + 1 < j:
-            ns_next, margin_next = _samples(tol, u, curv, k + 1)
+            ns_next, margin_next = _samples(ed, u, curv, k + 1)
             end_margin = max(margin, margin_next)
         for m in range(1, ns + 2):
             t = u[k] + du * m / (ns + 1) if m <= ns else u[k + 1]
@@ -374,16 +382,16 @@ def _bulge_ok(q, tol, i, j, u, c):
                 # so a fit cannot tie a loop (a fish-tail) inside the ribbon
                 dx = s * s * (c[0] - p0x) + 2.0 * s * t * (c[2] - c[0]) + t * t * (p3x - c[2])
                 dy = s * s * (c[1] - p0y) + 2.0 * s * t * (c[3] - c[1]) + t * t * (p3y - c[3])
-                if dx * (q[k + 1, 0] - q[k, 0]) + dy * (q[k + 1, 1] - q[k, 1]) < 0.0:
+                if dx * ed[k, 0] + dy * ed[k, 1] < 0.0:
                     return False
             mg = margin if m <= ns else end_margin
-            if cur < 0 or not _within(q, tol, cur, x, y, mg):
+            if cur < 0 or not _within(q, ed, cur, x, y, mg):
                 cur = -1
                 for r in range(j - i):
                     for e in (k - r, k + r):
                         if e < i or e >= j or (r == 0 and e != k - r):
                             continue
-                        if _within(q, tol, e, x, y, mg) and _within(q, tol, e, x0, y0, mg0):
+                        if _within(q, ed, e, x, y, mg) and _within(q, ed, e, x0, y0, mg0):
                             cur = e
                             break
                     if cur >= 0 or (k - r < i and k + r >= j - 1):
@@ -409,7 +417,7 @@ def _straight(q, i, j, c):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _fit_span(q, tol, w, cum, i, j, u, c, work):
+def _fit_span(q, ed, w, cum, i, j, u, c, work):
     """Fit the span i..j; True when it passes (then c holds the controls, u[i..j] the
     parameters). work is a (4, 5) scratch array."""
     if j == i + 1:
@@ -431,7 +439,7 @@ def _fit_span(q, tol, w, cum, i, j, u, c, work):
             _tdm(q, w, i, j, u, c, work)
         limit = GIVE_UP[it] * GIVE_UP[it] if it < len(GIVE_UP) else 1.0
         worst = _newton(q, w, i, j, u, c, limit)
-        if worst <= 1.0 and _bulge_ok(q, tol, i, j, u, c):
+        if worst <= 1.0 and _bulge_ok(q, ed, i, j, u, c):
             return True
         if worst > limit:
             return False
@@ -439,7 +447,7 @@ def _fit_span(q, tol, w, cum, i, j, u, c, work):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _check_fixed(q, tol, w, i, j, u, c):
+def _check_fixed(q, ed, w, i, j, u, c):
     """Does the cubic with controls c still fit the span i..j? Reparameterises u first."""
     # a joint's point is shared by two segments: its parameter is 0 in one, 1 in the other
     u[i] = 0.0
@@ -449,11 +457,11 @@ def _check_fixed(q, tol, w, i, j, u, c):
         worst = _newton(q, w, i, j, u, c, 1.0 if it == NEWTON_STEPS - 1 else np.inf)
     if worst > 1.0:
         return False
-    return _bulge_ok(q, tol, i, j, u, c)
+    return _bulge_ok(q, ed, i, j, u, c)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _snap_joint(q, tol, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
+def _snap_joint(q, ed, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
     """Snap the joint between segment a (incoming) and b (outgoing) if it qualifies and
     both segments still fit. ut, ca, cb are scratch."""
     px = q[ends[a + 1], 0]
@@ -489,7 +497,7 @@ def _snap_joint(q, tol, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
         g = a if r == 0 else b
         for k in range(ends[g], ends[g + 1] + 1):
             ut[k] = u[k]
-        if not _check_fixed(q, tol, w, ends[g], ends[g + 1], ut, ca if r == 0 else cb):
+        if not _check_fixed(q, ed, w, ends[g], ends[g + 1], ut, ca if r == 0 else cb):
             return
     for r in range(nseg):
         g = a if r == 0 else b
@@ -502,7 +510,7 @@ def _snap_joint(q, tol, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _fit_open(
-    q, tol, w, n, closed, cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
+    q, ed, w, n, closed, cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
 ):
     """Fit q[:n] (already closed by repetition when `closed`); fills ends[0:m+1] and
     ctrl[0:m]; returns m."""
@@ -532,7 +540,7 @@ def _fit_open(
                 if hi - lo <= 1:
                     break
                 j = (lo + hi) // 2
-            if _fit_span(q, tol, w, cum, i, j, u, c, work):
+            if _fit_span(q, ed, w, cum, i, j, u, c, work):
                 lo = j
                 for k in range(4):
                     cbest[k] = c[k]
@@ -555,7 +563,7 @@ def _fit_open(
     if cos_snap < 1.0:
         # interior joints in order, then the closing joint of a closed chain
         for a in range(m - 1 + (1 if closed else 0)):
-            _snap_joint(q, tol, w, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
+            _snap_joint(q, ed, w, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
     return m
 
 
@@ -591,6 +599,7 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap):
     q = np.empty((size, 2))
     tq = np.empty(size)
     wq = np.empty(size)
+    ed = np.empty((size, 4))
     cum = np.empty(size)
     u = np.empty(size)
     ut = np.empty(size)
@@ -630,8 +639,9 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap):
             nn = n
         for k in range(nn):
             wq[k] = 1.0 / (tq[k] * tq[k])
+        _edges(q, tq, nn, ed)
         m = _fit_open(
-            q, tq, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
+            q, ed, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
         )
         need = used + 1 + 3 * m
         if need > cap:
@@ -777,10 +787,10 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     mg = np.concatenate([[margin[0]], np.where(inner, margin[k], ends[k + 1])])
     a, e = q[i:j], q[i + 1 : j + 1] - q[i:j]
     ll = e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1]
+    inv = np.zeros(len(ll))
+    np.divide(1.0, ll, out=inv, where=ll > 0.0)
     w = x[:, None, :] - a[None]
-    h = np.zeros((len(x), len(a)))
-    np.divide(w[..., 0] * e[:, 0] + w[..., 1] * e[:, 1], ll, out=h, where=ll > 0.0)
-    h = np.clip(h, 0.0, 1.0)
+    h = np.clip((w[..., 0] * e[:, 0] + w[..., 1] * e[:, 1]) * inv, 0.0, 1.0)
     dx = a[:, 0] + h * e[:, 0] - x[:, None, 0]
     dy = a[:, 1] + h * e[:, 1] - x[:, None, 1]
     lim = tl[None, :] - mg[:, None]

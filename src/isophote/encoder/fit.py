@@ -7,15 +7,18 @@ the ribbon there). Segments are fitted first ignoring continuity, then joints wh
 tangents are within ``snap`` degrees of continuing each other are made G1 ("snapping",
 §1) wherever the chain stays inside the ribbon.
 
-Guarantees of :func:`fit_polyline` and :func:`fit_many`, for every polyline point k and
-every point x of the returned chain:
+Guarantees of :func:`fit_polyline` and :func:`fit_many` (up to rounding), for every
+polyline point k and every point x of the returned chain:
 
 * ``dist(points[k], chain) <= tol[k]``;
-* ``dist(x, polyline) <= max(tol[k], tol[k+1])`` where [k, k+1] is the polyline edge whose
-  stretch of curve x belongs to (checked at sample points, 2 or more per edge, so between
-  samples the bound holds up to the curve's sagitta, far below the tolerance);
+* ``dist(x, polyline) <= max(tol[e], tol[e+1])`` for some edge e = [e, e+1] of the span of
+  polyline points that x's segment covers, so the curve cannot bulge between points. This
+  holds for the whole curve, not only at samples: the check bounds the curve's excursion
+  between samples by its second derivative;
+* between two polyline points the curve runs the way of their edge (checked at samples),
+  so no segment ties a loop inside the ribbon;
 * open chains start at ``points[0]`` and end at ``points[-1]``; closed chains start and end
-  at the same input point; every joint is an input point;
+  at the same input point (``chain[-1] == chain[0]``); every joint is an input point;
 * output is finite and deterministic (same input, same bytes).
 
 The chain layout and the coordinate convention are those of :mod:`isophote.model`.
@@ -80,16 +83,22 @@ def fit_polyline(points, tol, closed, snap=20.0):
     Notes
     -----
     Greedy longest fit: from each joint the next segment is grown (exponential then binary
-    search over the end point) as far as a cubic still fits, by least squares over its two
-    inner controls with chord-length parameters and Newton reparameterisation [1]_. Then
-    joints whose handles differ in direction by less than ``snap`` degrees get both handles
+    search over the end point) as far as a cubic still fits. A span's cubic keeps the
+    span's end points; its two inner controls come from least squares over chord-length
+    parameters [1]_ (weights 1/tol^2), then up to two Gauss-Newton steps of tangent
+    distance minimisation [2]_, each followed by a Newton reparameterisation; Schneider's
+    plain alternation converges too slowly to recover even an exact cubic. Then joints
+    whose handles differ in direction by less than ``snap`` degrees get both handles
     rotated onto their length-weighted bisector, if both segments still fit. A two-point
-    open polyline gives the straight segment with controls at its thirds.
+    open polyline gives the straight segment with controls at its thirds. The kernels and
+    their NumPy reference twin are in :mod:`isophote._kernels.fit`.
 
     References
     ----------
     .. [1] P. J. Schneider, "An algorithm for automatically fitting digitized curves",
        Graphics Gems, 1990.
+    .. [2] W. Wang, H. Pottmann, Y. Liu, "Fitting B-spline curves to point clouds by
+       curvature-based squared distance minimization", ACM TOG 25(2), 2006.
     """
     points, tol = _check_points(points, tol)
     closed = bool(closed)
@@ -143,14 +152,11 @@ def fit_many(points, tol, offsets, closed, snap=20.0):
 
 
 def _eval_chain(chain, seg, t):
-    """Points of segment(s) ``seg`` of a chain at parameters ``t`` (broadcast): (..., 2)."""
-    p0 = chain[3 * seg]
-    c1 = chain[3 * seg + 1]
-    c2 = chain[3 * seg + 2]
-    p3 = chain[3 * seg + 3]
+    """Points of segment(s) ``seg`` of a chain at parameters ``t`` (same shape): (..., 2)."""
     t = t[..., None]
     s = 1.0 - t
-    return s**3 * p0 + 3.0 * s**2 * t * c1 + 3.0 * s * t**2 * c2 + t**3 * p3
+    return (s * s * s * chain[3 * seg] + 3.0 * s * s * t * chain[3 * seg + 1]
+            + 3.0 * s * t * t * chain[3 * seg + 2] + t * t * t * chain[3 * seg + 3])
 
 
 def chain_distance(chain, pts, samples=200):
@@ -188,26 +194,25 @@ def chain_distance(chain, pts, samples=200):
     g = np.arange(m * samples + 1)
     seg = np.minimum(g // samples, m - 1)
     t = (g - seg * samples) / samples
-    curve = _eval_chain(chain, seg, t)
-    best, gi = cKDTree(curve).query(pts)
-    # refine over the sample intervals [gi - 1, gi] and [gi, gi + 1]
-    for lo in (gi - 1, gi):
-        ok = (lo >= 0) & (lo < m * samples)
-        if not np.any(ok):
-            continue
-        lo = lo[ok]
-        p = pts[ok]
-        sg = lo // samples
-        a = (lo - sg * samples) / samples
-        b = a + 1.0 / samples
-        for _ in range(40):
-            x1 = a + (b - a) / 3.0
-            x2 = b - (b - a) / 3.0
-            d1 = np.sum((_eval_chain(chain, sg, x1) - p) ** 2, axis=-1)
-            d2 = np.sum((_eval_chain(chain, sg, x2) - p) ** 2, axis=-1)
-            left = d1 <= d2
-            b = np.where(left, x2, b)
-            a = np.where(left, a, x1)
-        d = np.sqrt(np.sum((_eval_chain(chain, sg, 0.5 * (a + b)) - p) ** 2, axis=-1))
-        best[ok] = np.minimum(best[ok], d)
+    best, gi = cKDTree(_eval_chain(chain, seg, t)).query(pts)
+    # refine over the sample intervals [gi - 1, gi] and [gi, gi + 1], both at once
+    lo = np.concatenate([gi - 1, gi])
+    who = np.concatenate([np.arange(len(pts))] * 2)
+    ok = (lo >= 0) & (lo < m * samples)
+    lo, who = lo[ok], who[ok]
+    p = pts[who]
+    sg = lo // samples
+    a = (lo - sg * samples) / samples
+    b = a + 1.0 / samples
+    sg2 = np.concatenate([sg, sg])
+    p2 = np.concatenate([p, p])
+    for _ in range(40):
+        x1 = a + (b - a) / 3.0
+        x2 = b - (b - a) / 3.0
+        d = np.sum((_eval_chain(chain, sg2, np.concatenate([x1, x2])) - p2) ** 2, axis=-1)
+        left = d[: len(a)] <= d[len(a) :]
+        b = np.where(left, x2, b)
+        a = np.where(left, a, x1)
+    d = np.sqrt(np.sum((_eval_chain(chain, sg, 0.5 * (a + b)) - p) ** 2, axis=-1))
+    np.minimum.at(best, who, d)
     return best

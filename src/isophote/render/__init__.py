@@ -5,10 +5,11 @@
         ->  per strip of output rows: rasterise bands at the target samples
         ->  fill (double diffusion or flat)  ->  box filter  ->  colour (YUV -> RGB), quantise
 
-The fill is a fixed function of the vector image: distances live on a node grid over the
-whole image (r nodes per source pixel, chosen from the image size alone), and each target
-sample reads the nodes around it. A crop is therefore exactly the same region of the full
-render, and tiles join seamlessly.
+The fill is a fixed function of the vector image and the output scale: distances live on a
+node grid over the whole image (r nodes per source pixel, chosen from the image size and the
+scale, never from the crop), and each target sample reads the nodes around it. A crop is
+therefore exactly the same region of the full render at that scale, and tiles join
+seamlessly.
 """
 
 from __future__ import annotations
@@ -133,15 +134,24 @@ def quantise(a: np.ndarray, depth: int) -> np.ndarray:
 def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
     segs, border = segments(ch)
     # flatten finely enough for both the node grid and the target samples
-    r = node_resolution(vi.width, vi.height)
+    r = node_resolution(vi.width, vi.height, max(vp.kx, vp.ky) / vp.s)
     tol = 0.05 / max(r, vp.kx, vp.ky)
     edges = flatten(segs, border, tol)
     return node_field(vi, ch, edges, r, opts.distance)
 
 
-NODE_BUDGET = 4_500_000
+NODE_BUDGET = 6_000_000
 
 
-def node_resolution(width: int, height: int) -> int:
-    """Nodes per source pixel of the distance grid: 4 up to ~0.28 MP, fewer above (memory)."""
-    return int(max(1, min(4, np.floor(np.sqrt(NODE_BUDGET / (width * height))))))
+def node_resolution(width: int, height: int, scale: float) -> int:
+    """Nodes per source pixel of the distance grid.
+
+    Odd, so that nodes sit on the pixel centres: 1 for renders at or below the source size
+    (a node per pixel), 3 for enlargements (finer bands), within NODE_BUDGET nodes.
+    Measured on astronaut and coffee at 1x (PSNR dB / FLIP): r=1 39.42/0.0469 and
+    39.32/0.0453, r=2 39.38/0.0488 and 39.10/0.0467, r=3 39.59/0.0467 and 39.58/0.0447,
+    r=4 39.54/0.0473 and 39.33/0.0457, r=3 costing 5x the time of r=1.
+    """
+    if scale > 1.0 + 1e-9 and 9 * width * height <= NODE_BUDGET:
+        return 3
+    return 1

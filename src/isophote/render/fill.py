@@ -32,7 +32,7 @@ def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool) -> np.ndarray:
     xs = (vp.col0 + np.arange(m) + 0.5 + vp.offx) / vp.kx * nf.r
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
-    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, out)
+    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
     return out
