@@ -245,6 +245,39 @@ def test_random_curves_within_ribbon(snap):
         check_chain(pts, tol, closed, fit_polyline(pts, tol, closed, snap=snap))
 
 
+def wild_polyline(rng):
+    """Points with no smooth curve behind them: uniform in a box (on a coarse grid, so
+    with collinear runs) or a rough random walk, sometimes with a repeated point. Like
+    isolines, they never come back to an earlier position."""
+    closed = bool(rng.integers(0, 2))
+    while True:
+        n = int(rng.integers(3 if closed else 2, 14))
+        if rng.random() < 0.6:
+            pts = np.round(rng.uniform(0, 10 ** rng.uniform(-1, 1.5), (n, 2)), 2)
+        else:
+            pts = np.cumsum(rng.normal(0, 0.5, (n, 2)), axis=0)
+        if n > 2 and rng.random() < 0.2:
+            k = int(rng.integers(1, n))
+            pts[k] = pts[k - 1]
+        # keep only polylines whose repeated positions are consecutive (cyclically if closed)
+        key = [tuple(p) for p in pts]
+        runs = [key[0]] + [b for a, b in zip(key, key[1:]) if a != b]
+        if closed and len(runs) > 1 and runs[0] == runs[-1]:
+            runs.pop()
+        if len(set(runs)) == len(runs):
+            break
+    tol = rng.uniform(0.01, 1.0, n) if rng.random() < 0.5 else np.full(n, rng.uniform(0.01, 1))
+    return pts, tol, closed
+
+
+def test_wild_polylines_within_ribbon():
+    rng = np.random.default_rng(6)
+    for _ in range(150):
+        pts, tol, closed = wild_polyline(rng)
+        snap = float(rng.choice([0.0, 20.0, 60.0]))
+        check_chain(pts, tol, closed, fit_polyline(pts, tol, closed, snap=snap))
+
+
 def test_snapping_aligns_joints_and_keeps_tolerance():
     snapped = 0
     # 80 curves: the no-backtracking rule declines some snaps, so the sample is larger
@@ -287,7 +320,9 @@ def test_deterministic():
 @pytest.mark.parametrize("snap", [0.0, 20.0])
 def test_kernel_matches_reference(snap):
     cos_snap = math.cos(math.radians(snap)) if snap > 0 else 1.0
-    for p, t, c in random_batch(5, 12):
+    rng = np.random.default_rng(8)
+    polys = random_batch(5, 12) + [wild_polyline(rng) for _ in range(30)]
+    for p, t, c in polys:
         fast = fit_polyline(p, t, c, snap=snap)
         ref = fit_polyline_ref(p, t, c, cos_snap)
         assert fast.shape == ref.shape

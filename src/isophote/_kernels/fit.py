@@ -52,8 +52,9 @@ GIVE_UP = (16.0, 4.0)
 TANGENTIAL = 0.01
 # Most curve samples strictly between two consecutive points in the bulge test.
 MAX_SAMPLES = 32
-# Relative Tikhonov term pulling the inner controls towards the straight segment's thirds:
-# it makes spans with fewer than two inner points well posed and is negligible otherwise.
+# Relative Tikhonov term, pulling the inner controls towards the straight segment's thirds
+# in the least-squares fit and towards the current controls in the Gauss-Newton steps: it
+# makes spans with few inner points well posed and is negligible otherwise.
 RIDGE = 1e-6
 
 

@@ -201,17 +201,15 @@ def fit_isolines(iso: Isolines, snap: float):
 
 def _corners(pts: np.ndarray) -> np.ndarray:
     """Points of a border run reduced to its ends and the image corners it turns at."""
-    keep = [pts[0]]
-    for k in range(1, len(pts) - 1):
-        a, b, c = keep[-1], pts[k], pts[k + 1]
-        if np.array_equal(b, a):
-            continue
-        d1, d2 = b - a, c - b
-        if abs(d1[0] * d2[1] - d1[1] * d2[0]) > 1e-12:
-            keep.append(b)
-    if not np.array_equal(pts[-1], keep[-1]) or len(keep) == 1:
-        keep.append(pts[-1])
-    return np.asarray(keep)
+    keep = np.ones(len(pts), bool)
+    keep[1:] = np.any(pts[1:] != pts[:-1], axis=1)  # drop repeated points
+    p = pts[keep]
+    if len(p) < 3:
+        return p if len(p) == 2 else np.vstack([p, p])[:2]
+    d = np.diff(p, axis=0)
+    turn = np.abs(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]) > 1e-12
+    sel = np.concatenate([[True], turn, [True]])
+    return p[sel]
 
 
 def _line_chain(corners: np.ndarray) -> np.ndarray:
