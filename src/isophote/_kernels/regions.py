@@ -141,6 +141,7 @@ def label_regions_ref(vals, band, levels):
 def region_stats(labels, vals, m):
     """Per region (ignoring the padding ring): argmin, argmax (flat indices), sum, count."""
     hp, wp = labels.shape
+    flat = vals.ravel()
     amin = np.full(m, -1, np.int64)
     amax = np.full(m, -1, np.int64)
     total = np.zeros(m)
@@ -150,9 +151,9 @@ def region_stats(labels, vals, m):
             k = labels[r, c]
             i = r * wp + c
             v = vals[r, c]
-            if amin[k] < 0 or v < vals.ravel()[amin[k]]:
+            if amin[k] < 0 or v < flat[amin[k]]:
                 amin[k] = i
-            if amax[k] < 0 or v > vals.ravel()[amax[k]]:
+            if amax[k] < 0 or v > flat[amax[k]]:
                 amax[k] = i
             total[k] += v
             count[k] += 1

@@ -65,18 +65,24 @@ def carrato_midpoints(v, eps, p, scale, axis):
     der = np.concatenate([de[1:], zero], axis=0)
     base, base_e = v[:-1], e[:-1]
 
-    def formula(b, dl_, d_, dr_):
+    def weight(dl_, dr_):
         sl = (dl_ / scale) ** 2
         sr = (dr_ / scale) ** 2
-        return b + (p * sl + 1.0) / (p * (sl + sr) + 2.0) * d_
+        return (p * sl + 1.0) / (p * (sl + sr) + 2.0)
 
-    mid = formula(base, dl, d, dr)
+    mid = base + weight(dl, dr) * d
+    # The formula is base + w(D[x-1], D[x+1]) * D[x]: the base error adds +-eps as it is, and
+    # w * D[x] takes its extremes at the corners of the box of limiting differences (w > 0).
     lo = np.full_like(mid, np.inf)
     hi = np.full_like(mid, -np.inf)
-    for sb, sl_, sd, sr_ in itertools.product((-1.0, 1.0), repeat=4):
-        val = formula(base + sb * base_e, dl + sl_ * del_, d + sd * de, dr + sr_ * der)
-        np.minimum(lo, val, out=lo)
-        np.maximum(hi, val, out=hi)
+    for sl_, sr_ in itertools.product((-1.0, 1.0), repeat=2):
+        w = weight(dl + sl_ * del_, dr + sr_ * der)
+        for sd in (-1.0, 1.0):
+            val = w * (d + sd * de)
+            np.minimum(lo, val, out=lo)
+            np.maximum(hi, val, out=hi)
+    hi += base_e
+    lo -= base_e
     mid_eps = 0.5 * (hi - lo)
     return np.moveaxis(mid, 0, axis), np.moveaxis(mid_eps, 0, axis)
 
