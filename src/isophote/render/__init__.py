@@ -86,25 +86,7 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
 def render_float(vi, **options) -> np.ndarray:
     """Render to float64 samples on 0..255, (H, W, C) with the image's channels in RGB(A) or
     grey(+alpha) order, unquantised. Options: the fields of RenderOptions."""
-    opts = RenderOptions(**options)
-    opts.validate()
-    vp = viewport(vi, opts)
-    flat = opts.fill == "flat"
-    planes = {}
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        fields = list(pool.map(lambda ch: _channel_field(vi, ch, vp, opts), vi.channels))
-        for ch, nf in zip(vi.channels, fields):
-            strips = range(0, vp.out_h, STRIP_ROWS)
-            parts = list(pool.map(lambda r: fill_strip(nf, vp, r, min(r + STRIP_ROWS, vp.out_h), flat), strips))
-            planes[ch.name] = np.vstack(parts) if parts else np.zeros((0, vp.out_w))
-    if vi.colour == "yuv":
-        yuv = np.stack([planes["Y"], planes["U"], planes["V"]], axis=-1).astype(np.float64)
-        out = [yuv_to_rgb(yuv)]
-    else:
-        out = [planes["Y"][..., None].astype(np.float64)]
-    if "A" in planes:
-        out.append(planes["A"][..., None].astype(np.float64))
-    return np.clip(np.concatenate(out, axis=-1), 0.0, 255.0)
+    return _render(vi, RenderOptions(**options), np.float64, lambda a: a)
 
 
 def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
@@ -119,10 +101,42 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
     -------
     (H, W) for grey, else (H, W, C) ndarray: uint8 for depth 8, uint16 for depth 16.
     """
-    depth = options.get("depth", 8)
-    a = render_float(vi, width=width, height=height, scale=scale, **options)
-    out = quantise(a, depth)
+    opts = RenderOptions(width=width, height=height, scale=scale, **options)
+    dtype = np.uint16 if opts.depth == 16 else np.uint8
+    out = _render(vi, opts, dtype, lambda a: quantise(a, opts.depth))
     return out[..., 0] if out.shape[2] == 1 else out
+
+
+def _render(vi, opts: RenderOptions, dtype, convert) -> np.ndarray:
+    """The pipeline, strip by strip: each strip fills every channel, converts its colour and
+    lands in the output through ``convert``, so no full-size float image is ever held."""
+    opts.validate()
+    vp = viewport(vi, opts)
+    flat = opts.fill == "flat"
+    n_out = (3 if vi.colour == "yuv" else 1) + (1 if vi.has_alpha else 0)
+    out = np.empty((vp.out_h, vp.out_w, n_out), dtype)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        fields = dict(zip((ch.name for ch in vi.channels),
+                          pool.map(lambda ch: _channel_field(vi, ch, vp, opts), vi.channels)))
+
+        def strip(r0):
+            r1 = min(r0 + STRIP_ROWS, vp.out_h)
+            planes = {name: fill_strip(nf, vp, r0, r1, flat) for name, nf in fields.items()}
+            out[r0:r1] = convert(_colour(vi, planes))
+
+        list(pool.map(strip, range(0, vp.out_h, STRIP_ROWS)))
+    return out
+
+
+def _colour(vi, planes) -> np.ndarray:
+    """Channel planes of one strip to RGB(A) or grey(+alpha), float64 on 0..255, clipped."""
+    if vi.colour == "yuv":
+        parts = [yuv_to_rgb(np.stack([planes["Y"], planes["U"], planes["V"]], axis=-1).astype(np.float64))]
+    else:
+        parts = [planes["Y"][..., None].astype(np.float64)]
+    if "A" in planes:
+        parts.append(planes["A"][..., None].astype(np.float64))
+    return np.clip(np.concatenate(parts, axis=-1), 0.0, 255.0)
 
 
 def quantise(a: np.ndarray, depth: int) -> np.ndarray:
