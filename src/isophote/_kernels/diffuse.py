@@ -33,6 +33,7 @@ from numba import njit
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
+MAX_SLOPE = 2.0  # see seed()
 HALF = 0.75  # node units: covers the gap between crossings on consecutive rows up to 48 degrees
 
 _OFFS = {
@@ -118,18 +119,22 @@ def seed(band, H, Vc, levels, mode):
         yc = i + 0.5
         for j in range(nc):
             xc = j + 0.5
-            if hfd[i, j + 1] != 0:  # nearest crossing on the right, moving right
+            # A crossing is a source only where its isoline is closer to perpendicular to the
+            # scan than to parallel (|slope| <= 2): a nearly parallel isoline crosses far
+            # from where it passes by, and moves there abruptly under a tiny shift; the
+            # other direction's scan meets it squarely instead.
+            if hfd[i, j + 1] != 0 and abs(hfs[i, j + 1]) <= MAX_SLOPE:  # right, moving right
                 tx, ty = _unit(hfs[i, j + 1], 1.0)
                 _offer_crossing(F, band, levels, i, j, hfx[i, j + 1], yc, tx, ty, hfd[i, j + 1] > 0, mode)
-            if hld[i, j] != 0:  # nearest crossing on the left, moving left
+            if hld[i, j] != 0 and abs(hls[i, j]) <= MAX_SLOPE:  # left, moving left
                 tx, ty = _unit(hls[i, j], 1.0)
                 _offer_crossing(F, band, levels, i, j, hlx[i, j], yc, tx, ty, hld[i, j] < 0, mode)
             # the column crossings come from the transposed (mirrored) geometry, whose winding
             # is the negated band: moving down, the band rises where their winding falls
-            if vfd[j, i + 1] != 0:  # below, moving down
+            if vfd[j, i + 1] != 0 and abs(vfs[j, i + 1]) <= MAX_SLOPE:  # below, moving down
                 tx, ty = _unit(1.0, vfs[j, i + 1])
                 _offer_crossing(F, band, levels, i, j, xc, vfx[j, i + 1], tx, ty, vfd[j, i + 1] < 0, mode)
-            if vld[j, i] != 0:  # above, moving up
+            if vld[j, i] != 0 and abs(vls[j, i]) <= MAX_SLOPE:  # above, moving up
                 tx, ty = _unit(1.0, vls[j, i])
                 _offer_crossing(F, band, levels, i, j, xc, vlx[j, i], tx, ty, vld[j, i] > 0, mode)
     return F
@@ -195,7 +200,8 @@ def propagate_ref(F, band, offs, mode, max_iter=10000):
             src_j = slice(max(dj, 0), nc + min(dj, 0))
             dst_j = slice(max(-dj, 0), nc + min(-dj, 0))
             same = band[src_i, src_j] == band[dst_i, dst_j]
-            w = abs(di) + abs(dj) if mode == MODE_MANHATTAN else np.hypot(di, dj)
+            # in the fields' own precision, or float32 rounding never lets the relaxation settle
+            w = F.dtype.type(abs(di) + abs(dj) if mode == MODE_MANHATTAN else np.hypot(di, dj))
             for s in range(2):
                 cand = F[s, D][src_i, src_j] + w
                 better = same & (cand < F[s, D][dst_i, dst_j] - 1e-12)

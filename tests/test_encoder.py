@@ -1,0 +1,589 @@
+"""Tests of the encoder (paper §3; src/isophote/encoder/).
+
+Every test encodes a synthetic image whose contours are known in closed form (cones,
+ramps, saddles, nested rings, Gaussian bumps) and checks the isolines, the fitted chains and
+the hierarchy against that answer. Crossings are found by brute force over segment pairs,
+fitting errors with ``chain_distance`` (dense sampling of the curve), never with the
+encoder's own estimates.
+
+Coordinates (model.py): x right, y down, pixel (i, j) covers [j, j+1) x [i, i+1) and its
+sample sits at (j + 0.5, i + 0.5).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import skimage.data
+
+import isophote
+from isophote import InputError, OptionError
+from isophote.colour import rgb_to_yuv
+from isophote.encoder import QUANT
+from isophote.encoder.fit import chain_distance
+from isophote.encoder.hierarchy import build_hierarchy
+from isophote.encoder.isolines import find_isolines, signed_area
+from isophote.encoder.levels import channel_levels, preset_levels
+from isophote.encoder.mapping import map_pixels
+from isophote.format.isoph import dumps
+from isophote.options import EncodeOptions
+from isophote.render import render_float
+from isophote.render.flatten import flatten, segments
+
+# ---------------------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------------------
+
+
+def centres(h, w):
+    """(y, x) of every pixel's sample: (i + 0.5, j + 0.5)."""
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    return yy + 0.5, xx + 0.5
+
+
+def isolines_of(img, levels, eps=0.5):
+    """The isolines of a float image, through the encoder's own mapping (default options)."""
+    o = EncodeOptions().resolved()
+    grid, grid_eps = map_pixels(np.asarray(img, np.float64), eps, o.carrato_p, o.carrato_scale)
+    return find_isolines(grid, grid_eps, np.asarray(levels, np.float64), o.min_tolerance, o.max_tolerance)
+
+
+def loop_border(iso, i):
+    return iso.border[iso.offsets[i] : iso.offsets[i + 1]]
+
+
+def chain_segments(chain):
+    """(n, 4, 2) control points of each cubic of a chain."""
+    n = (len(chain) - 1) // 3
+    return np.stack([chain[3 * s : 3 * s + 4] for s in range(n)])
+
+
+def polyline_pieces(iso):
+    """Per loop: (starts, ends, is_isoline) of its segments, zero-length ones dropped."""
+    out = []
+    for i in range(iso.n_loops):
+        p = iso.loop(i)
+        q = np.roll(p, -1, axis=0)
+        keep = np.any(p != q, axis=1)
+        out.append((p[keep], q[keep], ~loop_border(iso, i)[keep]))
+    return out
+
+
+def chain_pieces(ch, tol=0.01):
+    """Per contour: its flattened chain as (starts, ends, is_isoline), zero-length dropped."""
+    segs, border = segments(ch)
+    so = ch.segment_offsets()
+    out = []
+    for k in range(ch.n_contours):
+        x0, y0, x1, y1, src = flatten(segs[so[k] : so[k + 1]], border[so[k] : so[k + 1]], tol)
+        a, b = np.column_stack([x0, y0]), np.column_stack([x1, y1])
+        keep = np.any(a != b, axis=1)
+        out.append((a[keep], b[keep], src[keep]))
+    return out
+
+
+def _orient(p, q, r):
+    dq, dr = q - p, r - p
+    return dq[..., 0] * dr[..., 1] - dq[..., 1] * dr[..., 0]
+
+
+def _within(p, q, r):
+    """r inside the bounding box of segment pq (for collinear r)."""
+    return (
+        (np.minimum(p[..., 0], q[..., 0]) <= r[..., 0]) & (r[..., 0] <= np.maximum(p[..., 0], q[..., 0]))
+        & (np.minimum(p[..., 1], q[..., 1]) <= r[..., 1]) & (r[..., 1] <= np.maximum(p[..., 1], q[..., 1]))
+    )
+
+
+def crossing_pairs(pieces):
+    """Pairs of isoline segments that cross or touch, by brute force over all pairs.
+
+    ``pieces`` is a list of closed loops (starts, ends, is_isoline). Two segments count when
+    they intersect properly or an endpoint of one lies on the other (touching), except for
+    segments next to each other on the same loop, which share their joint.
+    """
+    A, B, loop, pos, length, iso_flag = [], [], [], [], [], []
+    for k, (a, b, f) in enumerate(pieces):
+        n = len(a)
+        A.append(a), B.append(b), iso_flag.append(f)
+        loop.append(np.full(n, k)), pos.append(np.arange(n)), length.append(np.full(n, n))
+    A, B = np.vstack(A), np.vstack(B)
+    loop, pos, length = np.concatenate(loop), np.concatenate(pos), np.concatenate(length)
+    sel = np.flatnonzero(np.concatenate(iso_flag))
+    A, B, loop, pos, length = A[sel], B[sel], loop[sel], pos[sel], length[sel]
+    lo, hi = np.minimum(A, B), np.maximum(A, B)
+    bad = []
+    chunk = 256
+    for s in range(0, len(A), chunk):
+        i = np.arange(s, min(s + chunk, len(A)))[:, None]
+        j = np.arange(len(A))[None, :]
+        cand = (j > i) & np.all(lo[i] <= hi[j], axis=2) & np.all(lo[j] <= hi[i], axis=2)
+        ii, jj = np.nonzero(cand)
+        ii = ii + s
+        jj = j[0, jj]
+        p1, p2, q1, q2 = A[ii], B[ii], A[jj], B[jj]
+        d1, d2 = _orient(q1, q2, p1), _orient(q1, q2, p2)
+        d3, d4 = _orient(p1, p2, q1), _orient(p1, p2, q2)
+        proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+        touch = (
+            ((d1 == 0) & _within(q1, q2, p1)) | ((d2 == 0) & _within(q1, q2, p2))
+            | ((d3 == 0) & _within(p1, p2, q1)) | ((d4 == 0) & _within(p1, p2, q2))
+        )
+        gap = np.abs(pos[ii] - pos[jj])
+        adjacent = (loop[ii] == loop[jj]) & ((gap == 1) | (gap == length[ii] - 1))
+        hit = (proper | touch) & ~adjacent
+        bad.extend(zip(ii[hit].tolist(), jj[hit].tolist()))
+    return bad
+
+
+def test_crossing_pairs_finds_crossings_and_touches():
+    """The brute-force checker itself: a crossing, a touch and a clean pair."""
+    sq = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float)
+
+    def piece(p):
+        return p, np.roll(p, -1, axis=0), np.ones(len(p), bool)
+
+    assert crossing_pairs([piece(sq), piece(sq + 5)]) == []
+    assert len(crossing_pairs([piece(sq), piece(sq + 1)])) == 2  # two proper crossings
+    touching = np.array([[2, 1], [4, 0], [4, 2]], float)  # a vertex on the square's side
+    assert len(crossing_pairs([piece(sq), piece(touching)])) >= 1
+    bow = np.array([[0, 0], [2, 2], [2, 0], [0, 2]], float)  # self-crossing bow tie
+    assert len(crossing_pairs([piece(bow)])) == 1
+
+
+# ---------------------------------------------------------------------------------------
+# cones: circles of known radii
+# ---------------------------------------------------------------------------------------
+
+N_CONE, CX, CY, PEAK, SLOPE = 48, 23.7, 24.2, 200.0, 8.0
+
+
+def cone(sign):
+    yy, xx = centres(N_CONE, N_CONE)
+    r = np.hypot(xx - CX, yy - CY)
+    v = np.maximum(PEAK - SLOPE * r, 10.0)  # flat below 10: no level-7.5 loop on the frame
+    return v if sign > 0 else 255.0 - v
+
+
+@pytest.mark.parametrize("sign", [1, -1], ids=["peak", "pit"])
+def test_cone_isolines_are_circles(sign):
+    img = cone(sign)
+    levels = preset_levels(10.0)
+    iso = isolines_of(img, levels)
+    # one loop per level between the flat floor and the apex, none elsewhere
+    crossing = [k for k, L in enumerate(levels) if img.min() < L < img.max()]
+    assert sorted(iso.level.tolist()) == crossing
+    assert not iso.border.any()
+    for i in range(iso.n_loops):
+        L = levels[iso.level[i]]
+        radius = (PEAK - L) / SLOPE if sign > 0 else (PEAK - (255.0 - L)) / SLOPE
+        p = iso.loop(i)
+        r = np.hypot(p[:, 0] - CX, p[:, 1] - CY)
+        assert abs(r.mean() - radius) < 0.05, (L, r.mean(), radius)
+        assert np.abs(r - radius).max() < (0.1 if radius > 2.5 else 0.2), (L, radius)
+        # orientation: higher values on the left as seen on screen (y down)
+        area = signed_area(p)
+        assert np.sign(area) == -sign  # peaks: negative shoelace area; pits: positive
+        assert abs(abs(area) - np.pi * radius**2) < 0.02 * np.pi * radius**2 + 0.5
+        # and locally: a step to the left of each segment goes up
+        q = np.roll(p, -1, axis=0)
+        d = q - p
+        ok = np.hypot(d[:, 0], d[:, 1]) > 1e-6
+        mid, d = 0.5 * (p + q)[ok], d[ok]
+        left = np.column_stack([d[:, 1], -d[:, 0]]) / np.hypot(d[:, 0], d[:, 1])[:, None]
+        rl = np.hypot(*(mid + 0.05 * left - [CX, CY]).T)
+        rr = np.hypot(*(mid - 0.05 * left - [CX, CY]).T)
+        assert np.all(sign * (rr - rl) > 0)  # peak: left is nearer the apex
+
+
+def test_cone_chains_keep_orientation_and_radius():
+    img = cone(1)
+    vi = isophote.encode(img)
+    ch = vi.channels[0]
+    assert ch.n_contours == np.count_nonzero((ch.levels > img.min()) & (ch.levels < img.max())) == 18
+    assert ch.base_band == 1
+    assert not ch.border.any()
+    for (lev, chain, _), (a, b, _) in zip(ch.chains(), chain_pieces(ch)):
+        radius = (PEAK - ch.levels[lev]) / SLOPE
+        assert np.array_equal(chain[0], chain[-1])
+        r = np.hypot(a[:, 0] - CX, a[:, 1] - CY)
+        assert np.abs(r - radius).max() < 0.5  # the curve stays in the ribbon (tol <= 0.5 px)
+        assert signed_area(a) == pytest.approx(-np.pi * radius**2, rel=0.03)
+
+
+# ---------------------------------------------------------------------------------------
+# linear ramp: straight isolines, border stretches on the frame
+# ---------------------------------------------------------------------------------------
+
+RAMP_H, RAMP_W, RAMP_A, RAMP_S = 24, 40, 10.0, 6.0
+
+
+def ramp():
+    # pixel j (centre x = j + 0.5) holds a + s * j, so v(x) = a + s * (x - 0.5)
+    return np.tile(RAMP_A + RAMP_S * np.arange(RAMP_W, dtype=np.float64), (RAMP_H, 1))
+
+
+def test_ramp_isolines_are_straight_at_known_x():
+    img = ramp()
+    levels = preset_levels(10.0)
+    iso = isolines_of(img, levels)
+    expected = [k for k, L in enumerate(levels) if img.min() < L < img.max()]
+    assert iso.level.tolist() == expected  # loops in level order, one each
+    assert iso.base_band == 1  # the image lies above 7.5: that level only runs round the frame
+    for i in range(iso.n_loops):
+        L = levels[iso.level[i]]
+        x_l = (L - RAMP_A) / RAMP_S + 0.5
+        p, brd = iso.loop(i), loop_border(iso, i)
+        q = np.roll(p, -1, axis=0)
+        line = np.vstack([p[~brd], q[~brd]])  # both ends of the isoline segments
+        # the Carrato midpoint next to the frame sees a zero outer difference: exact only
+        # from the second pixel centre on
+        exact = 1.5 <= x_l <= RAMP_W - 1.5
+        assert np.abs(line[:, 0] - x_l).max() < (1e-9 if exact else 0.01), (L, x_l)
+        assert line[:, 1].min() == 0.0 and line[:, 1].max() == RAMP_H
+        # border stretches: both ends exactly on one and the same image edge, on the right
+        # of the isoline (values rise to the right)
+        a, b = p[brd], q[brd]
+        assert len(a) > 0
+        on = [
+            (a[:, 1] == 0) & (b[:, 1] == 0),
+            (a[:, 0] == RAMP_W) & (b[:, 0] == RAMP_W),
+            (a[:, 1] == RAMP_H) & (b[:, 1] == RAMP_H),
+        ]
+        assert np.all(on[0] | on[1] | on[2])
+        assert np.all(on[0].any() & on[1].any() & on[2].any())
+        assert np.all(np.minimum(a[:, 0], b[:, 0]) >= x_l - 0.01)
+        # the loop is the rectangle [x_l, W] x [0, H], enclosing the higher values
+        assert signed_area(p) == pytest.approx(-(RAMP_W - x_l) * RAMP_H, abs=0.01)
+
+
+def test_ramp_chains_border_flags_only_on_frame():
+    vi = isophote.encode(ramp())
+    ch = vi.channels[0]
+    assert ch.n_contours == 23
+    for lev, chain, flags in ch.chains():
+        x_l = (ch.levels[lev] - RAMP_A) / RAMP_S + 0.5
+        segs = chain_segments(chain)
+        on_frame = (
+            np.all(segs[:, :, 1] == 0, axis=1) | np.all(segs[:, :, 0] == RAMP_W, axis=1)
+            | np.all(segs[:, :, 1] == RAMP_H, axis=1)
+        )
+        assert np.array_equal(flags, on_frame)
+        inner = segs[~flags]
+        assert np.abs(inner[:, :, 0] - x_l).max() < 0.02  # the isoline stretch is straight
+
+
+# ---------------------------------------------------------------------------------------
+# saddles: isolines never cross or touch
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "centre_value, cx, cy",
+    [(128.0, 16.0, 16.0), (127.5, 16.0, 16.0), (127.5, 16.25, 15.5), (131.0, 15.5, 16.5)],
+    ids=["between-levels", "saddle-on-level", "off-grid", "on-sample"],
+)
+def test_saddle_isolines_never_cross_or_touch(centre_value, cx, cy):
+    yy, xx = centres(32, 32)
+    img = np.clip(centre_value + 0.4 * (xx - cx) * (yy - cy), 0.0, 255.0)
+    levels = preset_levels(10.0)
+    iso = isolines_of(img, levels)
+    assert iso.n_loops > 20
+    assert crossing_pairs(polyline_pieces(iso)) == []
+    # the fitted chains (flattened) keep the property
+    vi = isophote.encode(img)
+    ch = vi.channels[0]
+    assert ch.n_contours == iso.n_loops
+    bad = crossing_pairs(chain_pieces(ch))
+    assert bad == [], f"{len(bad)} crossing pairs among the fitted chains"
+
+
+def test_isolines_of_a_natural_crop_never_cross():
+    img = skimage.data.camera()[120:152, 100:132].astype(np.float64)
+    iso = isolines_of(img, preset_levels(10.0))
+    assert iso.n_loops > 10
+    assert crossing_pairs(polyline_pieces(iso)) == []
+
+
+# ---------------------------------------------------------------------------------------
+# shapes cut by the border
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("corner", [False, True], ids=["half-disc-left", "quarter-disc-corner"])
+def test_border_shapes_close_along_the_frame(corner):
+    h, w = 40, 32
+    cx, cy = 0.0, (0.0 if corner else 20.0)
+    yy, xx = centres(h, w)
+    r = np.hypot(xx - cx, yy - cy)
+    img = np.clip(220.0 - 10.0 * r, 20.0, 255.0)
+    levels = np.array([60.5, 100.5, 140.5, 180.5])
+    iso = isolines_of(img, levels)
+    assert iso.level.tolist() == [0, 1, 2, 3]
+    part = 4 if corner else 2
+    for i in range(iso.n_loops):
+        radius = (220.0 - levels[iso.level[i]]) / 10.0
+        p, brd = iso.loop(i), loop_border(iso, i)
+        q = np.roll(p, -1, axis=0)
+        a, b = p[brd], q[brd]
+        assert len(a) > 0
+        if corner:
+            assert np.all(((a[:, 0] == 0) & (b[:, 0] == 0)) | ((a[:, 1] == 0) & (b[:, 1] == 0)))
+            assert ((a[:, 0] == 0) & (b[:, 0] == 0)).any() and ((a[:, 1] == 0) & (b[:, 1] == 0)).any()
+        else:
+            assert np.all((a[:, 0] == 0) & (b[:, 0] == 0))
+            # the border stretch spans the chord [cy - R, cy + R] of the frame
+            ys = np.concatenate([a[:, 1], b[:, 1]])
+            assert ys.min() == pytest.approx(cy - radius, abs=0.1)
+            assert ys.max() == pytest.approx(cy + radius, abs=0.1)
+        rr = np.hypot(p[~brd, 0] - cx, p[~brd, 1] - cy)
+        assert abs(rr.mean() - radius) < 0.05 and np.abs(rr - radius).max() < 0.1
+        # closed: the isoline arc and the border stretch bound the disc's part
+        assert signed_area(p) == pytest.approx(-np.pi * radius**2 / part, rel=0.02)
+    vi = isophote.encode(img, levels_y=tuple(levels))
+    ch = vi.channels[0]
+    assert ch.n_contours == 4
+    for lev, chain, flags in ch.chains():
+        assert np.array_equal(chain[0], chain[-1])
+        segs = chain_segments(chain)
+        on_frame = np.all(segs[:, :, 0] == 0, axis=1)
+        if corner:
+            on_frame |= np.all(segs[:, :, 1] == 0, axis=1)
+        assert flags.any()
+        assert np.array_equal(flags, on_frame)
+
+
+# ---------------------------------------------------------------------------------------
+# constant images
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "img",
+    [
+        np.full((16, 20), 100, np.uint8),
+        np.full((16, 20), 0, np.uint8),
+        np.full((16, 20), 255, np.uint8),
+        np.full((12, 16, 3), (200, 30, 90), np.uint8),
+        np.full((12, 16, 4), (200, 30, 90, 128), np.uint8),
+    ],
+    ids=["grey-100", "black", "white", "rgb", "rgba"],
+)
+def test_constant_image_has_no_contours_and_renders_exactly(img):
+    vi = isophote.encode(img)
+    if img.ndim == 2:
+        values = {"Y": float(img.flat[0])}
+    else:
+        yuv = rgb_to_yuv(img[0, 0, :3].astype(np.float64))
+        values = dict(zip("YUV", yuv))
+        if img.shape[2] == 4:
+            values["A"] = float(img[0, 0, 3])
+    assert [ch.name for ch in vi.channels] == list(values)
+    for ch in vi.channels:
+        assert ch.n_contours == 0 and ch.n_segments == 0
+        assert ch.base_band == np.searchsorted(ch.levels, values[ch.name], side="right")
+    out = vi.render()
+    assert out.dtype == np.uint8 and out.shape == img.shape
+    assert np.array_equal(out, img)
+
+
+def test_constant_on_a_level_counts_as_above():
+    img = np.full((8, 8), 127.5)  # exactly on the paper preset's middle Y level
+    vi = isophote.encode(img)
+    ch = vi.channels[0]
+    k = int(np.flatnonzero(ch.levels == 127.5)[0])
+    assert ch.n_contours == 0 and ch.base_band == k + 1
+    assert np.all(render_float(vi) == 127.5)
+
+
+# ---------------------------------------------------------------------------------------
+# noise, tolerance, fitting
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def camera_crop():
+    return skimage.data.camera()[100:164, 100:164]
+
+
+def test_more_noise_fewer_segments(camera_crop):
+    counts = [isophote.encode(camera_crop, noise=e).channels[0].n_segments for e in (0.5, 2.0, 8.0)]
+    assert counts[0] > counts[1] > counts[2], counts
+    assert counts[2] < 0.7 * counts[0]
+
+
+def test_fitted_chains_stay_within_the_ribbon(camera_crop):
+    """Every isoline point is within its tolerance of its fitted (and rounded) chain."""
+    opts = EncodeOptions().resolved()
+    img = camera_crop.astype(np.float64)
+    levels = channel_levels("Y", opts)
+    iso = isolines_of(img, levels)
+    vi = isophote.encode(camera_crop)
+    ch = vi.channels[0]
+    assert ch.n_contours == iso.n_loops > 50
+    assert np.array_equal(ch.contour_level, iso.level)
+    # control points are stored on the 1/64 grid
+    assert np.array_equal(ch.points * QUANT, np.round(ch.points * QUANT))
+    worst = -np.inf
+    for k in range(iso.n_loops):
+        d = chain_distance(ch.chain(k), iso.loop(k))
+        tol = iso.tol[iso.offsets[k] : iso.offsets[k + 1]]
+        worst = max(worst, float(np.max(d - tol)))
+    assert worst <= 1.0 / 64.0, worst
+
+
+# ---------------------------------------------------------------------------------------
+# hierarchy and caps
+# ---------------------------------------------------------------------------------------
+
+
+def rings():
+    """Alternating rings: 128 + 100 cos(pi r / 8) out to r = 16, then down to 28 by r = 20."""
+    yy, xx = centres(48, 48)
+    r = np.hypot(xx - 23.7, yy - 24.2)
+    return np.where(r <= 16, 128 + 100 * np.cos(np.pi * r / 8), np.maximum(228 - 50 * (r - 16), 28))
+
+
+def test_nested_rings_parents():
+    levels = np.array([77.5, 177.5])
+    # analytic radii: cos(pi r / 8) = +-0.495, and 228 - 50 (r - 16) = L
+    th_hi, th_lo = np.arccos(49.5 / 100), np.arccos(-50.5 / 100)
+    expected = [  # (radius, level index, encloses higher values), from the outside in
+        (16 + 150.5 / 50, 0, True),
+        (16 + 50.5 / 50, 1, True),
+        (8 * (2 * np.pi - th_hi) / np.pi, 1, False),
+        (8 * (2 * np.pi - th_lo) / np.pi, 0, False),
+        (8 * th_lo / np.pi, 0, True),
+        (8 * th_hi / np.pi, 1, True),
+    ]
+    iso = isolines_of(rings(), levels)
+    assert iso.n_loops == 6
+    radius = np.array([np.hypot(iso.loop(i)[:, 0] - 23.7, iso.loop(i)[:, 1] - 24.2).mean() for i in range(6)])
+    order = np.argsort(-radius)
+    for (r_exp, lev, up), i in zip(expected, order):
+        assert radius[i] == pytest.approx(r_exp, abs=0.1)
+        assert iso.level[i] == lev
+        assert (signed_area(iso.loop(i)) < 0) == up
+    tree = build_hierarchy(iso, levels)
+    # each loop's parent is the next larger ring
+    assert tree.parent[order[0]] == -1
+    for outer, inner in zip(order[:-1], order[1:]):
+        assert tree.parent[inner] == outer
+    vi = isophote.encode(rings(), levels_y=tuple(levels))
+    assert np.array_equal(vi.channels[0].parent, tree.parent)
+    assert np.array_equal(vi.channels[0].contour_level, iso.level)
+
+
+def two_bumps(sign):
+    yy, xx = centres(40, 56)
+    z = 40 + 150 * np.exp(-((xx - 20.3) ** 2 + (yy - 20.2) ** 2) / 50)
+    z = z + 150 * np.exp(-((xx - 36.2) ** 2 + (yy - 19.7) ** 2) / 50)
+    return z if sign > 0 else 255.0 - z
+
+
+@pytest.mark.parametrize("sign", [1, -1], ids=["peaks", "pits"])
+def test_two_bumps_are_siblings_with_caps(sign):
+    img = two_bumps(sign)
+    levels = (100.5, 150.5) if sign > 0 else (104.5, 154.5)
+    vi = isophote.encode(img, levels_y=levels)
+    ch = vi.channels[0]
+    inner = 1 if sign > 0 else 0  # the level around each bump alone
+    outer = 1 - inner
+    assert ch.n_contours == 3
+    assert sorted(ch.contour_level.tolist()) == sorted([outer, inner, inner])
+    big = int(np.flatnonzero(ch.contour_level == outer)[0])
+    small = np.flatnonzero(ch.contour_level == inner)
+    assert ch.parent[big] == -1
+    assert ch.parent[small].tolist() == [big, big]  # siblings, one parent
+    level = levels[inner]
+    for centre in ((20.3, 20.2), (36.2, 19.7)):
+        # the bump's extremum among the samples near it
+        yy, xx = centres(*img.shape)
+        near = np.hypot(xx - centre[0], yy - centre[1]) < 3
+        extremum = img[near].max() if sign > 0 else img[near].min()
+        k = np.flatnonzero(np.hypot(ch.cap_xy[:, 0] - centre[0], ch.cap_xy[:, 1] - centre[1]) < 1.0)
+        assert len(k) == 1, ch.cap_xy
+        k = int(k[0])
+        assert ch.cap_band[k] == np.searchsorted(ch.levels, extremum, side="right")
+        assert ch.cap_band[k] == (2 if sign > 0 else 0)
+        assert ch.cap_contour[k] in small.tolist()
+        # cap value: on the bump's side of its level, near its extremum
+        assert sign * (ch.cap_value[k] - level) > 0
+        assert abs(ch.cap_value[k] - extremum) <= 0.25 * abs(extremum - level), (ch.cap_value[k], extremum)
+    # the two bumps' caps hang from different contours
+    caps = [c for c in ch.cap_contour.tolist() if c in small.tolist()]
+    assert sorted(caps) == sorted(small.tolist())
+
+
+# ---------------------------------------------------------------------------------------
+# determinism and validation
+# ---------------------------------------------------------------------------------------
+
+
+def test_encoding_is_deterministic():
+    img = skimage.data.astronaut()[200:248, 180:228]
+    a = dumps(isophote.encode(img))
+    b = dumps(isophote.encode(img.copy()))
+    assert a == b
+    assert len(a) > 1000
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        np.full((4, 4), np.nan),
+        np.full((4, 4), np.inf),
+        np.zeros(5),
+        np.zeros((2, 2, 2, 2)),
+        np.zeros((4, 4, 5)),
+        np.zeros((0, 4)),
+        np.zeros((4, 0, 3)),
+        np.full((4, 4), 255.5),
+        np.full((4, 4), -0.5),
+        np.array([["a", "b"]]),
+    ],
+    ids=["nan", "inf", "1-d", "4-d", "5-channels", "empty", "empty-rgb", "above-255", "negative",
+         "strings"],
+)
+def test_bad_images_raise_input_error(bad):
+    with pytest.raises(InputError):
+        isophote.encode(bad)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        dict(preset="nope"),
+        dict(y_step=0),
+        dict(y_step=0.25),
+        dict(uv_step=200),
+        dict(alpha_step=-1),
+        dict(noise=-1),
+        dict(noise=100),
+        dict(snap=90),
+        dict(min_tolerance=0),
+        dict(min_tolerance=1.0, max_tolerance=0.5),
+        dict(carrato_scale=0),
+        dict(levels_y=(10, 5)),
+        dict(levels_y=(0, 5)),
+        dict(levels_u=(5, 255)),
+    ],
+)
+def test_bad_options_raise_option_error(options):
+    with pytest.raises(OptionError):
+        isophote.encode(np.zeros((4, 4), np.uint8), **options)
+
+
+def test_input_depths_are_scaled():
+    """uint16 is divided by 257 and bool is 0/255: the same picture, the same contours."""
+    ramp8 = np.tile(np.arange(0, 256, 8, dtype=np.uint8), (6, 1))
+    a = isophote.encode(ramp8)
+    b = isophote.encode(ramp8.astype(np.uint16) * 257)
+    assert b.source_depth == 16 and a.source_depth == 8
+    assert np.array_equal(a.channels[0].contour_level, b.channels[0].contour_level)
+    assert np.abs(a.channels[0].points - b.channels[0].points).max() <= 0.5
+    mask = np.zeros((8, 8), bool)
+    mask[2:6, 2:6] = True
+    c = isophote.encode(mask)
+    d = isophote.encode(mask.astype(np.uint8) * 255)
+    assert c.channels[0].equals(d.channels[0])

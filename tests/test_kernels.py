@@ -1,0 +1,363 @@
+"""Each numba kernel against its plain NumPy (or Python) twin on seeded random inputs
+(STYLE.md item 8): marching squares, region labelling, innermost enclosing loop,
+scanline rasterisation and distance propagation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from isophote._kernels.diffuse import seed as seed_fields
+from isophote._kernels.diffuse import (
+    D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, offsets, propagate, propagate_ref,
+)
+from isophote._kernels.enclose import innermost_enclosing, innermost_enclosing_ref
+from isophote._kernels.marching import link_loops, march, march_ref
+from isophote._kernels.raster import rasterise, rasterise_ref
+from isophote._kernels.regions import label_regions, label_regions_ref
+from isophote.encoder.isolines import pad_grid
+
+SEEDS = range(6)
+
+# ---------------------------------------------------------------------------------------
+# random inputs
+# ---------------------------------------------------------------------------------------
+
+
+def random_grid(rng, quantised):
+    """A random smooth-ish padded grid and its levels, as find_isolines builds them.
+
+    quantised: values on a 0.5 grid and levels on integers and half-integers, so that many
+    samples lie exactly on a level (the "equal counts as above" rule is exercised)."""
+    h, w = rng.integers(4, 14, size=2)
+    coarse = rng.uniform(0, 255, size=(h // 2 + 2, w // 2 + 2))
+    fine = np.kron(coarse, np.ones((2, 2)))[:h, :w] + rng.normal(0, 30, size=(h, w))
+    grid = np.clip(fine, 0, 255)
+    if quantised:
+        grid = np.round(grid * 2) / 2
+        levels = np.arange(20.0, 250.0, 17.5)
+    else:
+        levels = np.sort(rng.uniform(5, 250, size=rng.integers(1, 12)))
+    vals, band = pad_grid(grid, levels)
+    return vals, band, levels
+
+
+def star_polygon(rng, cx, cy, radius, n, wobble):
+    """A star-shaped polygon around (cx, cy) (angles spread: every gap below pi), in either
+    direction at random."""
+    t = (np.arange(n) + rng.uniform(0, 0.8, n)) * (2 * np.pi / n)
+    r = radius * (1 + wobble * rng.uniform(-1, 1, n))
+    p = np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
+    return p if rng.random() < 0.5 else p[::-1]
+
+
+def split_at_half_rows(loop):
+    """The loop with a vertex added wherever an edge crosses a line y = k / 2, so that every
+    edge lies within one half-pixel row (the bucketing innermost_enclosing expects)."""
+    out = []
+    for a, b in zip(loop, np.roll(loop, -1, axis=0)):
+        out.append(a)
+        lo, hi = sorted((a[1], b[1]))
+        ks = np.arange(np.floor(lo * 2) + 1, np.ceil(hi * 2)) / 2
+        ks = ks[(ks > lo) & (ks < hi)]
+        ts = (ks - a[1]) / (b[1] - a[1])
+        for t in np.sort(ts):
+            p = a + t * (b - a)
+            p[1] = a[1] + t * (b[1] - a[1])
+            out.append(np.array([p[0], ks[np.argmin(np.abs(ks - p[1]))]]))
+    return np.asarray(out)
+
+
+def shoelace(p):
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def nested_loops(rng, w, h):
+    """Random non-crossing loops: families of concentric stars, side by side, some inside a
+    frame loop; returns the loops (no repeated first point)."""
+    # (w, h) = (30, 20): a frame loop of radius >= 9.5 around (15, 10) holds two families
+    # centred 5 px from its centre, each of radius <= 3.2 * 1.25 = 4
+    loops = [star_polygon(rng, w / 2, h / 2, 9.6, 48, 0.01)]
+    for cx in (w / 2 - 5, w / 2 + 5):
+        cy = h / 2
+        base = star_polygon(rng, 0.0, 0.0, 1.0, int(rng.integers(5, 14)), 0.25)
+        for s in np.sort(rng.uniform(0.3, 3.2, size=rng.integers(1, 4)))[::-1]:
+            p = base * s + [cx, cy]
+            loops.append(p if rng.random() < 0.5 else p[::-1])
+    return loops
+
+
+# ---------------------------------------------------------------------------------------
+# marching squares
+# ---------------------------------------------------------------------------------------
+
+SEG_KEYS = ("skey", "ekey", "level", "border", "below", "above", "t")
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])
+def test_march_matches_its_twin(seed, quantised):
+    rng = np.random.default_rng(seed)
+    vals, band, levels = random_grid(rng, quantised)
+    fast = march(vals, band, levels)
+    ref = march_ref(vals, band, levels)
+    assert len(fast["skey"]) == len(ref["skey"]) > 0
+    # every crossing starts exactly one segment: the start key identifies a segment
+    f = np.argsort(fast["skey"])
+    r = np.argsort(ref["skey"])
+    for k in SEG_KEYS:
+        assert np.array_equal(fast[k][f], ref[k][r]), k
+    # and the segments close into loops
+    order, offs = link_loops(fast["skey"], fast["ekey"])
+    assert len(order) == len(fast["skey"]) and offs[-1] == len(order)
+    assert np.array_equal(np.sort(order), np.arange(len(order)))
+
+
+# ---------------------------------------------------------------------------------------
+# region labelling
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])
+def test_label_regions_matches_its_twin(seed, quantised):
+    rng = np.random.default_rng(100 + seed)
+    vals, band, levels = random_grid(rng, quantised)
+    band = band.astype(np.int64)
+    labels, m = label_regions(vals, band, levels)
+    labels_ref, m_ref = label_regions_ref(vals, band, levels)
+    assert m == m_ref
+    assert np.array_equal(labels, labels_ref)
+    # regions never mix bands
+    for k in range(m):
+        assert len(np.unique(band[labels == k])) == 1
+
+
+def test_label_regions_saddle_follows_the_decider():
+    """A 2 x 2 checkerboard: the diagonal pair joins only when the saddle value is in its band."""
+    levels = np.array([100.0])
+    for centre_high, joined in ((True, True), (False, False)):
+        hi, lo = (200.0, 90.0) if centre_high else (110.0, 0.0)
+        grid = np.array([[hi, lo], [lo, hi]])
+        vals, band = pad_grid(grid, levels)
+        for fn in (label_regions, label_regions_ref):
+            lab, _ = fn(vals, band.astype(np.int64), levels)
+            assert (lab[1, 1] == lab[2, 2]) == joined
+            assert lab[1, 2] != lab[2, 1] if joined else lab[1, 2] == lab[2, 1]
+
+
+# ---------------------------------------------------------------------------------------
+# innermost enclosing loop
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_innermost_enclosing_matches_its_twin(seed):
+    rng = np.random.default_rng(200 + seed)
+    w, h = 30.0, 20.0
+    loops = nested_loops(rng, w, h)
+    area = np.array([shoelace(p) for p in loops])
+    level = rng.integers(0, 5, size=len(loops)).astype(np.int64)
+    split = [split_at_half_rows(p) for p in loops]
+    x0 = np.concatenate([p[:, 0] for p in split])
+    y0 = np.concatenate([p[:, 1] for p in split])
+    x1 = np.concatenate([np.roll(p[:, 0], -1) for p in split])
+    y1 = np.concatenate([np.roll(p[:, 1], -1) for p in split])
+    seg_loop = np.concatenate([np.full(len(p), k) for k, p in enumerate(split)]).astype(np.int64)
+    n_rows = int(2 * h) + 1
+    row = np.clip(np.floor(np.minimum(y0, y1) * 2).astype(np.int64), 0, n_rows - 1)
+    assert np.all(np.maximum(y0, y1) <= (row + 1) / 2 + 1e-12)  # one row per segment
+    row_order = np.argsort(row, kind="stable")
+    row_start = np.searchsorted(row[row_order], np.arange(n_rows + 1))
+    # queries: random points, and a point of each loop excluding that loop (as the hierarchy)
+    px = np.concatenate([rng.uniform(0, w, 200), [0.5 * (p[0, 0] + p[1, 0]) for p in loops]])
+    py = np.concatenate([rng.uniform(0, h, 200), [0.5 * (p[0, 1] + p[1, 1]) for p in loops]])
+    exclude = np.concatenate([np.full(200, -1), np.arange(len(loops))]).astype(np.int64)
+    fast = innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, row_order,
+                               area, level, n_rows)
+    ref = innermost_enclosing_ref(px, py, exclude, loops, area, level)
+    assert np.array_equal(fast, ref)
+    # the known nesting: the frame loop holds both families, each ring holds the next
+    parents = fast[200:]
+    assert parents[0] == -1
+    expected = []
+    k = 1
+    while k < len(loops):  # a family: consecutive loops, outermost first, around one centre
+        j = k
+        right = loops[k][:, 0].mean() > w / 2
+        while j + 1 < len(loops) and (loops[j + 1][:, 0].mean() > w / 2) == right:
+            j += 1
+        expected += [0] + list(range(k, j))
+        k = j + 1
+    assert parents[1:].tolist() == expected
+    assert (fast[:200] >= 0).any() and (fast[:200] == -1).any()
+
+
+# ---------------------------------------------------------------------------------------
+# rasterisation
+# ---------------------------------------------------------------------------------------
+
+
+def random_edges(rng, w, h, n_loops, quantised):
+    xs0, ys0, xs1, ys1 = [], [], [], []
+    for _ in range(n_loops):
+        n = int(rng.integers(3, 12))
+        p = np.column_stack([rng.uniform(-2, w + 2, n), rng.uniform(-2, h + 2, n)])
+        if quantised:  # vertices on the quarter grid: many exactly on sample rows
+            p = np.round(p * 4) / 4
+        q = np.roll(p, -1, axis=0)
+        xs0.append(p[:, 0]), ys0.append(p[:, 1]), xs1.append(q[:, 0]), ys1.append(q[:, 1])
+    return tuple(np.concatenate(a) for a in (xs0, ys0, xs1, ys1))
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("quantised", [False, True], ids=["float", "quarter-grid"])
+def test_rasterise_matches_its_twin(seed, quantised):
+    rng = np.random.default_rng(300 + seed)
+    w, h = 24, 18
+    x0, y0, x1, y1 = random_edges(rng, w, h, int(rng.integers(1, 5)), quantised)
+    src = rng.random(len(x0)) < 0.7
+    for row0, col0, n_rows, n_cols in ((0, 0, h, w), (3, 5, 9, 11), (-2, -3, h + 4, w + 6)):
+        ref = rasterise_ref(x0, y0, x1, y1, row0, col0, n_rows, n_cols)
+        for crossings in (False, True):
+            band, *_ = rasterise(x0, y0, x1, y1, src, row0, col0, n_rows, n_cols, crossings)
+            assert band.dtype == ref.dtype == np.int16
+            assert np.array_equal(band, ref), (row0, col0, crossings)
+
+
+def test_rasterise_square_has_the_known_winding():
+    """A square [2, 6] x [1, 4] traversed with its inside on the left (screen): band 1 exactly
+    on the samples whose centres lie inside; half-open on the edges through sample centres."""
+    sq = np.array([(2.0, 1.0), (2.0, 4.0), (6.0, 4.0), (6.0, 1.0)])  # down the left side first
+    q = np.roll(sq, -1, axis=0)
+    x0, y0, x1, y1 = sq[:, 0], sq[:, 1], q[:, 0], q[:, 1]
+    band, *_ = rasterise(x0, y0, x1, y1, np.ones(4, bool), 0, 0, 6, 8, False)
+    yy, xx = np.mgrid[0:6, 0:8] + 0.5
+    inside = (xx > 2) & (xx < 6) & (yy > 1) & (yy < 4)
+    assert np.array_equal(band, inside.astype(np.int16))
+    assert np.array_equal(rasterise_ref(x0, y0, x1, y1, 0, 0, 6, 8), band)
+    # the crossings record the exact edge positions of each row's gaps
+    _, fx, fd, lx, ld, fs, ls = rasterise(x0, y0, x1, y1, np.ones(4, bool), 0, 0, 6, 8, True)
+    assert fx[2, 2] == 2.0 and fd[2, 2] == 1 and lx[2, 6] == 6.0 and ld[2, 6] == -1
+    assert np.all(fd[0] == 0) and np.all(fd[5] == 0)
+
+
+# ---------------------------------------------------------------------------------------
+# distance propagation
+# ---------------------------------------------------------------------------------------
+
+
+def empty_field(nr, nc):
+    """F in the layout seed() produces (node-major storage, indexed F[side, field, i, j])."""
+    F = np.zeros((nr, nc, 2, NF), np.float32).transpose((2, 3, 0, 1))
+    F[:, D] = np.inf
+    return F
+
+
+def blob_bands(rng, nr, nc, n_bands):
+    coarse = rng.integers(0, n_bands, size=(nr // 3 + 1, nc // 3 + 1))
+    band = np.kron(coarse, np.ones((3, 3), np.int16))[:nr, :nc].astype(np.int16)
+    flip = rng.random((nr, nc)) < 0.08
+    band[flip] = rng.integers(0, n_bands, size=flip.sum())
+    return np.ascontiguousarray(band)
+
+
+def compare_fields(a, b):
+    for s in range(2):
+        da, db = a[s, D], b[s, D]
+        assert np.array_equal(np.isfinite(da), np.isfinite(db))
+        fin = np.isfinite(da)
+        np.testing.assert_allclose(da[fin], db[fin], rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("mode", [MODE_MANHATTAN, MODE_GEODESIC], ids=["manhattan", "geodesic"])
+def test_propagate_matches_its_twin_on_random_sources(seed, mode):
+    rng = np.random.default_rng(400 + seed)
+    nr, nc = (int(v) for v in rng.integers(6, 24, size=2))
+    band = blob_bands(rng, nr, nc, 4)
+    F = empty_field(nr, nc)
+    for s in range(2):
+        src = rng.random((nr, nc)) < 0.05
+        F[s, D][src] = rng.uniform(0, 1, src.sum())
+        F[s, V][src] = rng.uniform(0, 255, src.sum())
+    # the twin runs in float64 (see test_propagate_ref_converges_on_float32_fields)
+    ref = propagate_ref(F.astype(np.float64), band, offsets(mode), mode)
+    fast = F.copy()
+    sweeps = propagate(fast, band, offsets(mode), mode, 1000)
+    assert sweeps < 1000  # converged
+    compare_fields(fast, ref)
+    # a node with a finite distance got it within its band: every finite node's band holds a
+    # source of that side
+    for s in range(2):
+        for b in np.unique(band[np.isfinite(fast[s, D])]):
+            assert np.isfinite(F[s, D][band == b]).any()
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("mode", [MODE_MANHATTAN, MODE_GEODESIC], ids=["manhattan", "geodesic"])
+def test_propagate_matches_its_twin_on_seeded_fields(seed, mode):
+    """F seeded from the crossings of random polygons, as render/distance.py builds it."""
+    rng = np.random.default_rng(500 + seed)
+    nr, nc = 18, 24
+    x0, y0, x1, y1 = random_edges(rng, nc, nr, 3, quantised=False)
+    src = np.ones(len(x0), bool)
+    band, *h = rasterise(x0, y0, x1, y1, src, 0, 0, nr, nc, True)
+    _, *v = rasterise(y0, x0, y1, x1, src, 0, 0, nc, nr, True)
+    band = band - band.min()
+    levels = np.arange(1, int(band.max()) + 2) * 10.0 + 0.5
+    F = seed_field = seed_fields(band, tuple(h), tuple(v), levels, mode)
+    assert np.isfinite(seed_field[:, D]).any()
+    ref = propagate_ref(F.astype(np.float64), band, offsets(mode), mode)
+    fast = F.copy()
+    assert propagate(fast, band, offsets(mode), mode, 1000) < 1000
+    compare_fields(fast, ref)
+    # values are the levels bounding each node's band
+    for s, shift in ((0, -1), (1, 0)):
+        fin = np.isfinite(fast[s, D])
+        assert np.array_equal(fast[s, V][fin], levels[band[fin] + shift].astype(np.float32))
+
+
+class _CountingNumpy:
+    """Stands in for numpy inside _kernels.diffuse: counts np.hypot calls (one per offset and
+    sweep of propagate_ref in the geodesic mode)."""
+
+    def __init__(self):
+        self.hypot_calls = 0
+
+    def __getattr__(self, name):
+        return getattr(np, name)
+
+    def hypot(self, *args):
+        self.hypot_calls += 1
+        return np.hypot(*args)
+
+
+def test_propagate_ref_converges_on_float32_fields(monkeypatch):
+    from isophote._kernels import diffuse
+
+    counter = _CountingNumpy()
+    monkeypatch.setattr(diffuse, "np", counter)
+    F = empty_field(2, 3)
+    F[0, D, 0, 0] = 0.0  # one source; node (1, 2) is a knight's move away: sqrt(5)
+    out = propagate_ref(F, np.zeros((2, 3), np.int16), offsets(MODE_GEODESIC), MODE_GEODESIC, max_iter=50)
+    assert out[0, D, 1, 2] == np.float32(np.sqrt(5.0))
+    passes = counter.hypot_calls / (2 * len(offsets(MODE_GEODESIC)))
+    assert passes < 10, passes  # a 2 x 3 grid settles in a couple of passes
+
+
+def test_seed_offers_only_levels_that_cross():
+    """A pit (level 100 only, levels 50 / 100 / 150) whose top vertex touches node row 4."""
+    corners = np.array([(8.3, 4.5), (12.8, 8.35), (8.35, 12.8), (4.2, 8.35)])
+    q = np.roll(corners, -1, axis=0)
+    x0, y0, x1, y1 = corners[:, 0], corners[:, 1], q[:, 0], q[:, 1]
+    src = np.ones(4, bool)
+    band, *h = rasterise(x0, y0, x1, y1, src, 0, 0, 17, 17, True)
+    band = band + np.int16(2)  # outside the pit: above 100; inside: band 1
+    _, *v = rasterise(y0, x0, y1, x1, src, 0, 0, 17, 17, True)
+    assert set(np.unique(band).tolist()) == {1, 2}
+    F = seed_fields(band, tuple(h), tuple(v), np.array([50.0, 100.0, 150.0]), MODE_MANHATTAN)
+    seeded = np.isfinite(F[:, D])
+    assert seeded.any()
+    assert set(np.unique(F[:, V][seeded]).tolist()) == {100.0}

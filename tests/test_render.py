@@ -1,0 +1,306 @@
+"""Tests of the decoder (paper §4; src/isophote/render/).
+
+Synthetic images with known answers are encoded and rendered back: ramps must come back
+within a grey level, discs keep their radius and centre at every scale, caps peak at their
+annotated value, crops are exact pieces of the full render, and diffusion has no steps
+where flat fill has one per level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import skimage.data
+
+import isophote
+from isophote import LimitError, OptionError
+from isophote.model import Channel, VectorImage
+from isophote.render import render, render_float
+
+# ---------------------------------------------------------------------------------------
+# images
+# ---------------------------------------------------------------------------------------
+
+
+def centres(h, w):
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    return yy + 0.5, xx + 0.5
+
+
+def ramp_image(kind):
+    yy, xx = centres(24, 40)
+    # offsets chosen so that no sample lies exactly on a level (see the xfail below)
+    if kind == "x":
+        return 10.0 + 6.0 * xx
+    if kind == "y":
+        return 20.3 + 9.0 * yy
+    return 10.3 + 3.0 * xx + 2.0 * yy
+
+
+@pytest.fixture(scope="module")
+def ramps():
+    return {k: (ramp_image(k), isophote.encode(ramp_image(k))) for k in ("x", "y", "diagonal")}
+
+
+@pytest.fixture(scope="module")
+def radial():
+    """A smooth radial gradient (slope 4 per pixel) and its encoding."""
+    yy, xx = centres(32, 32)
+    img = 40.0 + 4.0 * np.hypot(xx - 15.7, yy - 16.2)
+    return img, isophote.encode(img)
+
+
+# ---------------------------------------------------------------------------------------
+# fidelity
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["x", "y", "diagonal"])
+def test_ramp_renders_back(ramps, kind):
+    img, vi = ramps[kind]
+    out = render_float(vi)
+    assert out.shape == img.shape + (1,)
+    err = np.abs(out[..., 0] - img)
+    assert err[2:-2, 2:-2].max() <= 1.0, err[2:-2, 2:-2].max()
+    assert err[2:-2, 2:-2].mean() <= 0.25
+    assert err.max() <= 2.0  # the outermost pixels: the frame is no isoline, still close
+
+
+@pytest.mark.parametrize("distance", ["euclidean", "manhattan", "geodesic"])
+def test_every_distance_mode_renders_the_ramp(ramps, distance):
+    img, vi = ramps["x"]
+    out = render_float(vi, distance=distance)[..., 0]
+    assert np.abs(out - img)[2:-2, 2:-2].max() <= 1.0
+
+
+def test_diffusion_has_no_steps_flat_fill_does(radial):
+    img, vi = radial
+    diff = render_float(vi, scale=4)[..., 0]
+    flat = render_float(vi, scale=4, fill="flat")[..., 0]
+    assert diff.shape == flat.shape == (128, 128)
+
+    def largest_jump(a):
+        return max(np.abs(np.diff(a, axis=0)).max(), np.abs(np.diff(a, axis=1)).max())
+
+    # the gradient itself moves 4 / 4 = 1 grey level per output pixel
+    assert largest_jump(diff) <= 2.0, largest_jump(diff)
+    assert largest_jump(flat) >= 8.0  # one level step (10) at every band boundary
+    # flat fill takes only band middles; diffusion follows the cone
+    assert len(np.unique(flat)) <= 25
+    yy, xx = (np.mgrid[0:128, 0:128] + 0.5) / 4
+    truth = 40.0 + 4.0 * np.hypot(xx - 15.7, yy - 16.2)
+    inner = (slice(8, -8), slice(8, -8))
+    assert np.abs(diff - truth)[inner].mean() < 1.0
+    assert np.abs(diff - truth)[inner].mean() < 0.5 * np.abs(flat - truth)[inner].mean()
+
+
+def disc_image(size=48, radius=10.0, cx=24.3, cy=23.6, ss=8):
+    """An anti-aliased disc (coverage by ss x ss supersampling): 50 outside, 200 inside."""
+    yy, xx = (np.mgrid[0 : size * ss, 0 : size * ss] + 0.5) / ss
+    inside = (xx - cx) ** 2 + (yy - cy) ** 2 <= radius**2
+    cov = inside.reshape(size, ss, size, ss).mean(axis=(1, 3))
+    return 50.0 + 150.0 * cov
+
+
+@pytest.mark.parametrize("scale", [1, 2, 4])
+def test_disc_keeps_radius_and_centre(scale):
+    radius, cx, cy = 10.0, 24.3, 23.6
+    vi = isophote.encode(disc_image(radius=radius, cx=cx, cy=cy))
+    out = render_float(vi, scale=scale)[..., 0]
+    assert out.shape == (48 * scale, 48 * scale)
+    inside = out >= 125.0
+    yy, xx = (np.mgrid[0 : 48 * scale, 0 : 48 * scale] + 0.5) / scale
+    area = inside.sum() / scale**2
+    assert area == pytest.approx(np.pi * radius**2, rel=0.02)
+    assert xx[inside].mean() == pytest.approx(cx, abs=0.15 / scale + 0.02)
+    assert yy[inside].mean() == pytest.approx(cy, abs=0.15 / scale + 0.02)
+    # the only disagreements with the analytic disc hug its circle
+    r = np.hypot(xx - cx, yy - cy)
+    wrong = inside != (r <= radius)
+    assert np.all(np.abs(r[wrong] - radius) < 0.25)
+    assert np.abs(out[r > radius + 3] - 50.0).max() <= 1.0  # the outer plateau comes back
+
+
+@pytest.mark.parametrize("scale", [1, 2])
+def test_disc_inner_plateau_comes_back(scale):
+    vi = isophote.encode(disc_image())
+    out = render_float(vi, scale=scale)[..., 0]
+    yy, xx = (np.mgrid[0 : 48 * scale, 0 : 48 * scale] + 0.5) / scale
+    r = np.hypot(xx - 24.3, yy - 23.6)
+    assert np.abs(out[r < 7.0] - 200.0).max() <= 1.0
+
+
+@pytest.mark.parametrize("scale", [1, 2, 4])
+def test_cap_peaks_at_its_value(scale):
+    yy, xx = centres(32, 32)
+    img = 30.0 + 180.0 * np.exp(-((xx - 15.6) ** 2 + (yy - 16.3) ** 2) / (2 * 4.0**2))
+    vi = isophote.encode(img)
+    ch = vi.channels[0]
+    top = int(np.argmax(ch.cap_band))
+    assert ch.cap_band[top] == np.searchsorted(ch.levels, img.max(), side="right")
+    assert abs(ch.cap_xy[top, 0] - 15.6) < 1 and abs(ch.cap_xy[top, 1] - 16.3) < 1
+    out = render_float(vi, scale=scale)[..., 0]
+    assert abs(out.max() - ch.cap_value[top]) <= 1.0, (out.max(), ch.cap_value[top])
+    # the maximum is where the bump is
+    i, j = np.unravel_index(np.argmax(out), out.shape)
+    assert np.hypot((j + 0.5) / scale - 15.6, (i + 0.5) / scale - 16.3) < 2.5
+
+
+# ---------------------------------------------------------------------------------------
+# viewport: crops, sizes, supersampling, depth
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def wavy():
+    """A 32 x 48 (H x W) smooth image with many contours."""
+    yy, xx = centres(32, 48)
+    img = 40.0 + 3.0 * np.hypot(xx - 20.7, yy - 16.2) + 12.0 * np.sin(xx / 3.0) * np.cos(yy / 4.0)
+    return isophote.encode(np.clip(img, 0, 255))
+
+
+@pytest.mark.parametrize("crop", [(5, 7, 10, 9), (0, 20, 12, 12), (36, 0, 12, 32)],
+                         ids=["inside", "left-bottom-border", "right-column"])
+def test_crop_is_exactly_a_piece_of_the_full_render(wavy, crop):
+    full = render_float(wavy, scale=2)
+    x, y, w, h = crop
+    part = render_float(wavy, scale=2, crop=crop)
+    assert part.shape == (2 * h, 2 * w, 1)
+    assert np.array_equal(part, full[2 * y : 2 * (y + h), 2 * x : 2 * (x + w)])
+
+
+def test_sixteen_bits_have_many_more_values(wavy):
+    a8 = render(wavy, scale=4, depth=8)
+    a16 = render(wavy, scale=4, depth=16)
+    assert a8.dtype == np.uint8 and a16.dtype == np.uint16
+    assert a8.shape == a16.shape == (128, 192)
+    smooth = (slice(40, 88), slice(60, 132))
+    assert len(np.unique(a16[smooth])) >= 10 * len(np.unique(a8[smooth]))
+    # the same picture: 16-bit / 257 rounds to the 8-bit render
+    assert np.abs(a16.astype(np.float64) / 257.0 - a8).max() <= 0.51
+
+
+def test_sizes_and_supersampling(wavy):
+    assert render(wavy).shape == (32, 48)
+    assert render(wavy, supersample=2).shape == (32, 48)
+    assert render(wavy, scale=2, supersample=2).shape == (64, 96)
+    assert render(wavy, width=24).shape == (16, 24)  # width alone keeps the aspect ratio
+    assert render(wavy, height=64).shape == (64, 96)  # height alone too
+    assert render(wavy, width=10, height=40).shape == (40, 10)  # both stretch
+    assert render(wavy, scale=0.5).shape == (16, 24)
+    assert render(wavy, crop=(4, 4, 20, 10), scale=3).shape == (30, 60)
+    # supersampling averages: close to the point-sampled render, within its range
+    a = render_float(wavy, scale=2)[..., 0]
+    b = render_float(wavy, scale=2, supersample=2)[..., 0]
+    assert np.abs(a - b).mean() < 1.0
+    assert a.min() - 1.0 <= b.min() and b.max() <= a.max() + 1.0
+
+
+def test_rgb_render_shapes_and_colour():
+    yy, xx = centres(16, 24)
+    rgb = np.stack([40 + 8 * xx, 200 - 9 * yy, np.full_like(xx, 90.0)], axis=-1)
+    vi = isophote.encode(np.clip(rgb, 0, 255))
+    out = render_float(vi)
+    assert out.shape == (16, 24, 3)
+    assert np.abs(out - rgb)[2:-2, 2:-2].max() <= 3.0
+    assert render(vi, scale=2).shape == (32, 48, 3)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        dict(crop=(-1, 0, 4, 4)),
+        dict(crop=(0, -0.5, 4, 4)),
+        dict(crop=(40, 0, 10, 4)),
+        dict(crop=(0, 30, 4, 4)),
+        dict(crop=(0, 0, 49, 4)),
+        dict(crop=(0, 0, 0, 4)),
+        dict(crop=(0, 0, 4)),
+        dict(fill="smooth"),
+        dict(distance="chebyshev"),
+        dict(depth=12),
+        dict(supersample=0),
+        dict(supersample=17),
+        dict(scale=0),
+        dict(scale=-2),
+        dict(scale=2, width=10),
+        dict(width=0),
+        dict(height=-3),
+    ],
+)
+def test_bad_render_options_raise_option_error(wavy, options):
+    with pytest.raises(OptionError):
+        render(wavy, **options)
+
+
+def test_too_many_pixels_raise_limit_error(wavy):
+    with pytest.raises(LimitError):
+        render(wavy, max_pixels=1000)  # 48 x 32 = 1536
+    with pytest.raises(LimitError):
+        render(wavy, scale=100, max_pixels=10_000_000)  # 4800 x 3200
+    assert render(wavy, max_pixels=1536).shape == (32, 48)  # the limit itself is allowed
+
+
+# ---------------------------------------------------------------------------------------
+# known bugs
+# ---------------------------------------------------------------------------------------
+
+
+def _diamond_pit(top_y):
+    """One contour of level 100 (levels 50, 100, 150) around a pit: a quadrilateral with its
+    top vertex at (8.3, top_y), edges in general position. Caps: 80 in the pit, 120 outside."""
+    corners = np.array([(8.3, top_y), (12.8, 8.35), (8.35, 12.8), (4.2, 8.35)])
+    pts = [corners[0]]
+    for a, b in zip(corners, np.roll(corners, -1, axis=0)):
+        pts += [a + (b - a) / 3, a + 2 * (b - a) / 3, b]
+    chain = np.array(pts)
+    ch = Channel(
+        name="Y", levels=np.array([50.0, 100.0, 150.0]), contour_level=np.array([1], np.int32),
+        offsets=np.array([0, len(chain)], np.int64), points=chain, border=np.zeros(4, bool),
+        parent=np.array([-1], np.int32), cap_band=np.array([1, 2], np.int32),
+        cap_contour=np.array([0, -1], np.int32), cap_xy=np.array([[8.5, 8.5], [0.5, 0.5]]),
+        cap_value=np.array([80.0, 120.0]), base_band=2,
+    )
+    return VectorImage(width=17, height=17, colour="grey", channels=(ch,))
+
+
+def _check_diamond(out, scale):
+    yy, xx = (np.mgrid[0 : out.shape[0], 0 : out.shape[1]] + 0.5) / scale
+    assert np.abs(out[yy < 2.0] - 120.0).max() <= 1e-3  # the outer plateau
+    assert out[int(8.5 * scale), int(8.5 * scale)] == pytest.approx(80.0, abs=1e-3)  # the pit's cap
+    assert out.max() <= 120.0 + 1e-3 and out.min() >= 80.0 - 1e-3  # nothing beyond the caps
+
+
+@pytest.mark.parametrize("scale", [1, 2, 3])
+def test_diamond_pit_renders_between_its_caps(scale):
+    """The reference for the xfail below: the top vertex a tenth of a pixel lower."""
+    out = render_float(_diamond_pit(4.6), scale=scale)[..., 0]
+    _check_diamond(out, scale)
+
+
+@pytest.mark.parametrize("scale", [1, 2, 3])
+def test_vertex_touching_a_node_row_is_no_source(scale):
+    out = render_float(_diamond_pit(4.5), scale=scale)[..., 0]
+    _check_diamond(out, scale)
+
+
+def test_samples_exactly_on_a_level_render_at_the_level():
+    yy, xx = centres(24, 40)
+    img = 20.0 + 9.0 * yy  # rows 7 and 17 hold 87.5 and 177.5: levels of the paper preset
+    out = render_float(isophote.encode(img))[..., 0]
+    assert np.abs(out - img)[2:-2, 2:-2].max() <= 1.0  # renders 92.5 and 182.5 there
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known limitation: a 1e-6 px shift flips the band of the few nodes that sit exactly on an "
+    "isoline (3 pixels here, a legitimate change), and the distance propagation through those "
+    "nodes then changes whole neighbourhoods by up to ~3 levels (71 pixels > 0.5)"))
+def test_render_is_stable_under_a_tiny_shift():
+    img = skimage.data.camera()[100:164, 100:164]
+    vi = isophote.encode(img)
+    moved = replace(vi, channels=tuple(ch.with_points(ch.points + [0.0, 1e-6]) for ch in vi.channels))
+    a = render_float(vi)
+    b = render_float(moved)
+    assert np.abs(a - b).max() <= 0.5
