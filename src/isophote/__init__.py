@@ -7,6 +7,9 @@ Y, U, V) and is rendered back at any size with double-diffusion fill between con
     >>> vi = isophote.encode(pixels)          # (H, W[, C]) array on 0..255
     >>> out = vi.render(scale=2)              # (2H, 2W, C) float array on 0..255
     >>> vi.save("photo.isoph"); vi2 = isophote.load("photo.isoph")
+    >>> from isophote.apply.warp import rotation
+    >>> turned = isophote.warp(vi, rotation(15, (vi.width / 2, vi.height / 2)))
+    >>> flat = isophote.equalise(vi)          # rectangular luminance histogram (§5)
 """
 
 from .errors import FormatError, InputError, IsophoteError, LimitError, OptionError
@@ -24,13 +27,37 @@ def encode(image, **options) -> VectorImage:
 
 
 def load(path) -> VectorImage:
-    """Read an .isoph file."""
-    from .format.isoph import load as _load
+    """Read an .isoph file, or an SVG / SVGZ written by isophote (edits included).
 
-    return _load(path)
+    The kind is told by the file's first bytes, not its name."""
+    from .format import isoph, svg
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(64)
+    except OSError as e:
+        raise FormatError(f"{path}: cannot read: {e.strerror or e}") from None
+    if not head.startswith(isoph.MAGIC) and svg.is_svg(head):
+        return svg.load_svg(path)
+    return isoph.load(path)
+
+
+def warp(vi, transform, **options) -> VectorImage:
+    """A warped copy of ``vi`` (§6): see :func:`isophote.apply.warp.warp`."""
+    from .apply.warp import warp as _warp
+
+    return _warp(vi, transform, **options)
+
+
+def equalise(vi, **options) -> VectorImage:
+    """``vi`` with its luminance histogram equalised by level reassignment (§5): see
+    :func:`isophote.apply.equalise.equalise`."""
+    from .apply.equalise import equalise as _equalise
+
+    return _equalise(vi, **options)
 
 
 __all__ = [
-    "encode", "load", "VectorImage", "Channel", "EncodeOptions", "RenderOptions",
+    "encode", "load", "warp", "equalise", "VectorImage", "Channel", "EncodeOptions", "RenderOptions",
     "IsophoteError", "InputError", "FormatError", "OptionError", "LimitError",
 ]

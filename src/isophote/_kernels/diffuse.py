@@ -34,6 +34,7 @@ MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
 MAX_SLOPE = 2.0  # see seed()
+FAR = 2.5  # node units, see _far()
 HALF = 0.75  # node units: covers the gap between crossings on consecutive rows up to 48 degrees
 
 _OFFS = {
@@ -284,6 +285,13 @@ def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
 
 
 @njit(cache=True, nogil=True)
+def _far(F, i, j):
+    """Is node (i, j) at least FAR from every source (and not on a cap's ramp)? There the fill
+    is smooth, and bilinear interpolation of node values matches exact evaluation closely."""
+    return F[0, D, i, j] >= FAR and F[1, D, i, j] >= FAR
+
+
+@njit(cache=True, nogil=True)
 def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out):
     """Fill values at target samples.
 
@@ -291,7 +299,8 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
     labels, dmax, capv: node regions and their cap data (label_nodes, region_caps); ramp: the
     cap ramp in node units. nv: the fill at the nodes themselves (this function applied to
     the node grid), or an empty array: a sample whose four surrounding nodes all share its
-    band then interpolates them bilinearly, the others are evaluated exactly.
+    band and lie FAR from every source interpolates them bilinearly, the others are
+    evaluated exactly.
     out (n, m) float32 receives the values.
     """
     use_nv = nv.shape[0] == nband.shape[0]
@@ -319,7 +328,9 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
             j0 = int(np.floor(x - 0.5))
             if use_nv and 0 <= i0 < nr - 1 and 0 <= j0 < nc - 1:
                 if (nband[i0, j0] == b and nband[i0, j0 + 1] == b
-                        and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b):
+                        and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b
+                        and _far(F, i0, j0) and _far(F, i0, j0 + 1)
+                        and _far(F, i0 + 1, j0) and _far(F, i0 + 1, j0 + 1)):
                     fx = x - (j0 + 0.5)
                     fy = y - (i0 + 0.5)
                     out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[i0, j0] + fx * nv[i0, j0 + 1])
