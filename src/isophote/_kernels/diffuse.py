@@ -120,22 +120,18 @@ def seed(band, H, Vc, levels, mode):
         yc = i + 0.5
         for j in range(nc):
             xc = j + 0.5
-            # A crossing is a source only where its isoline is closer to perpendicular to the
-            # scan than to parallel (|slope| <= 2): a nearly parallel isoline crosses far
-            # from where it passes by, and moves there abruptly under a tiny shift; the
-            # other direction's scan meets it squarely instead.
-            if hfd[i, j + 1] != 0 and abs(hfs[i, j + 1]) <= MAX_SLOPE:  # right, moving right
+            if hfd[i, j + 1] != 0:  # right, moving right
                 tx, ty = _unit(hfs[i, j + 1], 1.0)
                 _offer_crossing(F, band, levels, i, j, hfx[i, j + 1], yc, tx, ty, hfd[i, j + 1] > 0, mode)
-            if hld[i, j] != 0 and abs(hls[i, j]) <= MAX_SLOPE:  # left, moving left
+            if hld[i, j] != 0:  # left, moving left
                 tx, ty = _unit(hls[i, j], 1.0)
                 _offer_crossing(F, band, levels, i, j, hlx[i, j], yc, tx, ty, hld[i, j] < 0, mode)
             # the column crossings come from the transposed (mirrored) geometry, whose winding
             # is the negated band: moving down, the band rises where their winding falls
-            if vfd[j, i + 1] != 0 and abs(vfs[j, i + 1]) <= MAX_SLOPE:  # below, moving down
+            if vfd[j, i + 1] != 0:  # below, moving down
                 tx, ty = _unit(1.0, vfs[j, i + 1])
                 _offer_crossing(F, band, levels, i, j, xc, vfx[j, i + 1], tx, ty, vfd[j, i + 1] < 0, mode)
-            if vld[j, i] != 0 and abs(vls[j, i]) <= MAX_SLOPE:  # above, moving up
+            if vld[j, i] != 0:  # above, moving up
                 tx, ty = _unit(1.0, vls[j, i])
                 _offer_crossing(F, band, levels, i, j, xc, vlx[j, i], tx, ty, vld[j, i] > 0, mode)
     return F
