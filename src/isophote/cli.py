@@ -5,6 +5,10 @@
     isophote compare  ORIGINAL RENDER [--diff DIFF.png] [--json]
     isophote info     FILE.isoph [--json]
     isophote contours FILE.isoph -o OUT.png [--channel Y] [--scale S]
+    isophote warp     IN.isoph -o OUT.isoph (--rotate DEG | --affine A,B,C,D,E,F | --perspective ...
+                      | --swirl STRENGTH,RADIUS) [--canvas same|fit|WxH] [--background R,G,B]
+    isophote equalize IN.isoph -o OUT.isoph [--fast]
+    isophote figures  OUTDIR [--image IN] [--quick]
 
 Exit status: 0 on success; 2 on bad input, bad options or an output that cannot be written
 (one line ``isophote: <reason>`` on stderr, no traceback); 1 on an internal error. Outputs
@@ -69,6 +73,62 @@ def _positive_float(text: str) -> float:
     if not (v > 0 and math.isfinite(v)):
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return v
+
+
+def _numbers(count):
+    """argparse type: comma-separated numbers, ``count`` of them (an int or a tuple of ints)."""
+    counts = (count,) if isinstance(count, int) else tuple(count)
+
+    def parse(text: str) -> tuple:
+        parts = [v for v in text.replace(" ", "").split(",") if v != ""]
+        try:
+            values = tuple(float(v) for v in parts)
+        except ValueError:
+            values = ()
+        if len(values) not in counts or not all(math.isfinite(v) for v in values):
+            want = " or ".join(str(c) for c in counts)
+            raise argparse.ArgumentTypeError(f"expected {want} numbers separated by commas, got {text!r}")
+        return values
+
+    return parse
+
+
+def _perspective(text: str):
+    """Eight matrix numbers 'A,...,H', or four points 'X,Y X,Y X,Y X,Y' (also ';'-separated)."""
+    groups = [g for g in text.replace(";", " ").split() if g]
+    try:
+        if len(groups) == 4:
+            pts = [tuple(float(v) for v in g.split(",")) for g in groups]
+            if all(len(q) == 2 for q in pts) and all(math.isfinite(v) for q in pts for v in q):
+                return ("corners", pts)
+        values = tuple(float(v) for v in text.replace(" ", "").split(",") if v != "")
+        if len(values) == 8 and all(math.isfinite(v) for v in values):
+            return ("matrix", values)
+    except ValueError:
+        pass
+    raise argparse.ArgumentTypeError(
+        f"expected eight numbers A,B,C,D,E,F,G,H or four points 'X,Y X,Y X,Y X,Y', got {text!r}")
+
+
+def _swirl(text: str) -> tuple:
+    values = _numbers((2, 4))(text)
+    if values[1] <= 0:
+        raise argparse.ArgumentTypeError(f"the swirl radius must be positive, got {values[1]:g}")
+    return values
+
+
+def _canvas(text: str):
+    t = text.strip().lower()
+    if t in ("same", "fit"):
+        return t
+    parts = t.replace("*", "x").split("x")
+    try:
+        w, h = (int(v) for v in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected same, fit or WxH (e.g. 640x480), got {text!r}") from None
+    if not (1 <= w <= 1_000_000 and 1 <= h <= 1_000_000):
+        raise argparse.ArgumentTypeError(f"canvas {w}x{h} is out of range")
+    return (w, h)
 
 
 # field name -> argparse keywords (no defaults here: they come from the dataclass)
@@ -204,6 +264,61 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"output pixels per source pixel (default: {DEFAULT_SCALE:g})")
     p.add_argument("--crop", type=_crop, metavar="X,Y,W,H", help="draw only this rectangle, in source pixels")
     p.set_defaults(func=cmd_contours)
+
+    p = sub.add_parser("warp", parents=[common], help="warp an .isoph: rotate, affine, perspective, swirl (§6)",
+                       description="Move the contours of an .isoph file through a geometric map and write "
+                       "a new .isoph. Affine maps move control points exactly; perspective and swirl "
+                       "subdivide the chains until they are within --tolerance of the exact curves. "
+                       "Coordinates are source pixels: x right, y down, origin at the top-left corner. "
+                       "Regions the warped picture does not cover get --background. A value that starts "
+                       "with a minus sign needs '=' (--affine=-1,0,640,0,1,0).")
+    p.add_argument("input", metavar="IN.isoph", help="input .isoph file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.isoph", help="output .isoph file")
+    how = p.add_mutually_exclusive_group(required=True)
+    how.add_argument("--rotate", type=float, metavar="DEG",
+                     help="rotate about the image centre, counter-clockwise on screen (as scikit-image's rotate)")
+    how.add_argument("--affine", type=_numbers(6), metavar="A,B,C,D,E,F",
+                     help="x' = A x + B y + C, y' = D x + E y + F")
+    how.add_argument("--perspective", type=_perspective, metavar="SPEC",
+                     help="a homography: eight numbers A,B,C,D,E,F,G,H for x' = (A x + B y + C) / (G x + H y + 1), "
+                     "y' = (D x + E y + F) / (G x + H y + 1); or four corner points 'X,Y X,Y X,Y X,Y' "
+                     "(space-separated pairs): where the top-left, top-right, bottom-right and bottom-left "
+                     "corners of the image go")
+    how.add_argument("--swirl", type=_swirl, metavar="STRENGTH,RADIUS[,CX,CY]",
+                     help="scikit-image's swirl (same parameters and picture), about the centre or (CX, CY)")
+    p.add_argument("--canvas", type=_canvas, default="same", metavar="same|fit|WxH",
+                   help="output canvas: the input's size (default), the bounding box of the warped image, "
+                   "or W x H pixels")
+    p.add_argument("--background", type=_numbers((1, 3)), default=(0.0, 0.0, 0.0), metavar="R,G,B",
+                   help="colour (0..255) of the regions the warped image does not cover (default: black)")
+    p.add_argument("--tolerance", type=_positive_float, default=None, metavar="PX",
+                   help="largest error of a warped curve in output pixels, non-affine maps (default: 0.02)")
+    p.set_defaults(func=cmd_warp)
+
+    p = sub.add_parser("equalize", aliases=["equalise"], parents=[common],
+                       help="histogram-equalise an .isoph by level reassignment (§5)",
+                       description="Equalise the luminance histogram of an .isoph file by giving its Y levels "
+                       "new values (the exact area above each level, from the Bezier chains, through the "
+                       "inverse of a rectangular histogram), then refit the levels and cap values on three "
+                       "renders of Y. Contours are unchanged; U and V are kept. Prints the rendered 8-bit Y "
+                       "histogram's empty bins, KS distance to the uniform and entropy.")
+    p.add_argument("input", metavar="IN.isoph", help="input .isoph file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.isoph", help="output .isoph file")
+    p.add_argument("--fast", action="store_true",
+                   help="exact areas only: no rendering (a less rectangular histogram, instant)")
+    p.add_argument("--json", action="store_true", help="print the histogram measures as a JSON object")
+    p.set_defaults(func=cmd_equalize)
+
+    p = sub.add_parser("figures", parents=[common], help="regenerate the paper's figures as PNG panels",
+                       description="Write the panels of the paper's Fig. 1 (original / flat / diffusion), "
+                       "Fig. 2 (Y, U, V and their contours), Fig. 9 (x4 and x8 crops: bilinear vs vector), "
+                       "Fig. 10-11 (equalised images and histograms, pixel vs level reassignment) and warps "
+                       "(vector vs bicubic raster) into OUTDIR, with an index.md describing them.")
+    p.add_argument("outdir", metavar="OUTDIR", help="folder for the PNG panels (created if missing)")
+    p.add_argument("--image", metavar="IN", default=None,
+                   help="photograph to use (default: scikit-image's chelsea.png, a corpus photograph)")
+    p.add_argument("--quick", action="store_true", help="smaller crops and fewer panels (a smoke test)")
+    p.set_defaults(func=cmd_figures)
     return parser
 
 
@@ -250,6 +365,7 @@ def _quiet_stdout() -> None:
 
 def _fail(message: str) -> None:
     _Progress.clear_line()
+    message = " ".join(str(message).split("\n"))  # one line, whatever a path or a library put in it
     sys.stderr.write(f"{PROG}: {message}\n")
 
 
@@ -567,3 +683,92 @@ def cmd_contours(args) -> int:
                f"{time.perf_counter() - t0:.1f} s")
     return 0
 
+
+# =============================================================================================
+# warp
+# =============================================================================================
+
+
+def cmd_warp(args) -> int:
+    from .apply import warp as W
+    from .format.isoph import save
+
+    _check_output(args.output, args.input)
+    progress = _Progress(args.quiet)
+    t0 = time.perf_counter()
+    vi = _load(args.input)
+    centre = (vi.width / 2.0, vi.height / 2.0)
+    if args.rotate is not None:
+        transform, what = W.rotation(args.rotate, centre), f"rotated {args.rotate:g} degrees"
+    elif args.affine is not None:
+        transform, what = W.Affine([args.affine[:3], args.affine[3:]]), "affine"
+    elif args.perspective is not None:
+        kind, spec = args.perspective
+        if kind == "corners":
+            src = [(0, 0), (vi.width, 0), (vi.width, vi.height), (0, vi.height)]
+            transform = W.perspective_from_points(src, spec)
+        else:
+            transform = W.Perspective([spec[:3], spec[3:6], [spec[6], spec[7], 1.0]])
+        what = "perspective"
+    else:
+        sw = args.swirl
+        c = (sw[2], sw[3]) if len(sw) == 4 else centre
+        transform, what = W.Swirl(c, sw[0], sw[1]), f"swirl {sw[0]:g} radius {sw[1]:g}"
+    bg = args.background if len(args.background) == 3 else args.background * 3
+    progress(f"warping ({what})...")
+    kw = {} if args.tolerance is None else {"tolerance": args.tolerance}
+    out = W.warp(vi, transform, canvas=args.canvas, background=bg, **kw)
+    save(out, args.output)
+    progress.done()
+    segs = sum(ch.n_segments for ch in out.channels)
+    _say(args, f"{args.output}: {out.width}x{out.height}, {what}, {segs:,} segments; "
+               f"{time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+# =============================================================================================
+# equalize
+# =============================================================================================
+
+
+def cmd_equalize(args) -> int:
+    from .apply.equalise import equalise
+    from .format.isoph import save
+
+    _check_output(args.output, args.input)
+    progress = _Progress(args.quiet)
+    t0 = time.perf_counter()
+    vi = _load(args.input)
+    progress("equalising (exact level areas)..." if args.fast else "equalising (areas, then 4 renders of Y)...")
+    info = {}
+    out = equalise(vi, refine_render=not args.fast, info=info)
+    save(out, args.output)
+    progress.done()
+    stats = info.get("measured")
+    if args.json:
+        print(json.dumps({"levels": info["new_levels"], "measured": stats}, allow_nan=False))
+        return 0
+    how = "exact areas" if args.fast else "exact areas + refit on renders"
+    _say(args, f"{args.output}: Y levels reassigned ({how}); {time.perf_counter() - t0:.1f} s")
+    if stats is not None:
+        _say(args, f"rendered 8-bit Y: {stats['empty']} empty bins of 256, KS {stats['ks']:.4f} "
+                   f"to the uniform, entropy {stats['entropy']:.3f} bits")
+    return 0
+
+
+# =============================================================================================
+# figures
+# =============================================================================================
+
+
+def cmd_figures(args) -> int:
+    from .figures import make_figures
+
+    if os.path.exists(args.outdir) and not os.path.isdir(args.outdir):
+        raise OptionError(f"{args.outdir}: exists and is not a folder")
+    progress = _Progress(args.quiet)
+    t0 = time.perf_counter()
+    written = make_figures(args.outdir, image=args.image, quick=args.quick, progress=progress)
+    progress.done()
+    _say(args, f"{args.outdir}: {len(written)} panels and index.md; {time.perf_counter() - t0:.1f} s")
+    return 0

@@ -28,6 +28,7 @@ Writing
 
 from __future__ import annotations
 
+import logging
 import os
 import stat
 import struct
@@ -52,6 +53,11 @@ _PILLOW_ERRORS = (
     OSError, SyntaxError, ValueError, EOFError, struct.error, IndexError, KeyError, TypeError,
     ZeroDivisionError, OverflowError, MemoryError, RecursionError, zlib.error,
 )
+
+# Pillow logs some of the corrupt files it rejects (logger.error); with logging left
+# unconfigured, Python would print those on stderr beside our one-line error. A NullHandler
+# keeps them quiet there and still lets an application that configures logging see them.
+logging.getLogger("PIL").addHandler(logging.NullHandler())
 
 # Multi-channel 16-bit raw modes: Pillow decodes them to 8-bit images (the high byte).
 _RAW16 = {"RGB;16B", "RGB;16L", "RGB;16N", "RGBA;16B", "RGBA;16L", "RGBA;16N"}
@@ -99,6 +105,8 @@ def read_image(path) -> Raster:
     except _bomb_errors() as e:
         raise LimitError(f"{name}: {_one_line(e)}") from None
     except _unidentified() as e:
+        if _is_empty(name):
+            raise InputError(f"{name}: empty file") from None
         raise InputError(f"{name}: not an image in a format isophote reads ({', '.join(READ_FORMATS)})") from None
     except _PILLOW_ERRORS as e:
         raise InputError(f"{name}: cannot read image ({type(e).__name__}: {_one_line(e)})") from None
@@ -108,6 +116,13 @@ def read_image(path) -> Raster:
         pixels /= 257.0
         depth = 16
     return Raster(np.ascontiguousarray(pixels), depth, grey, alpha, note)
+
+
+def _is_empty(name) -> bool:
+    try:
+        return os.path.getsize(name) == 0
+    except OSError:
+        return False
 
 
 def _one_line(e) -> str:
@@ -143,6 +158,9 @@ def _decode(path):
     Image.MAX_IMAGE_PIXELS = MAX_INPUT_PIXELS  # Pillow checks at open, before decoding
     formats = _read_formats()
     with warnings.catch_warnings():
+        # Pillow warns on stderr about the corrupt files it rejects anyway ("Truncated File
+        # Read"); the user gets one line from us instead. Bomb warnings become errors.
+        warnings.simplefilter("ignore")
         warnings.simplefilter("error", Image.DecompressionBombWarning)
         with Image.open(path, formats=formats) as im:
             w, h = im.size
@@ -156,7 +174,7 @@ def _decode(path):
                 note = f"{im.format} has {frames} frames (animated or multi-page): first frame used"
                 im.seek(0)
             fmt = im.format
-            if im.mode in ("RGB", "RGBA") and _rawmodes(im) == {"LA;16B"}:
+            if im.mode == "RGBA" and _rawmodes(im) == {"LA;16B"}:
                 # 16-bit grey + alpha PNG: Pillow's only decoder for it keeps the high bytes.
                 # Unpacked as 8-bit RGBA instead, its four bytes come through unchanged.
                 im.tile = [_with_rawmode(t, "RGBA") for t in im.tile]
@@ -166,6 +184,8 @@ def _decode(path):
                 out = (samples, 65535, True, True)
             elif im.mode in ("RGB", "RGBA") and _is_raw16(im):
                 out = _decode_16bit(im, path, fmt, formats)
+            elif _is_ppm16(im):
+                out = _decode_ppm16(im, path)
             else:
                 im.load()
                 out = _decode_plain(im)
@@ -216,6 +236,29 @@ def _decode_16bit(im, path, fmt, formats):
         samples = _keyed_alpha(samples, key, 65535)
         alpha = True
     return samples, 65535, False, alpha
+
+
+def _is_ppm16(im) -> bool:
+    """A binary PPM (P6) with 16-bit samples, which Pillow scales down to 8 bits."""
+    tiles = im.tile or []
+    return (im.format == "PPM" and im.mode == "RGB" and len(tiles) == 1 and tiles[0].codec_name == "ppm"
+            and len(tiles[0].args) == 2 and 255 < int(tiles[0].args[1]) <= 65535)
+
+
+def _decode_ppm16(im, path):
+    """16-bit binary PPM (dcraw -4 writes these): big-endian samples on 0..maxval."""
+    tile = im.tile[0]
+    w, h = im.size
+    maxval = int(tile.args[1])
+    need = w * h * 3 * 2
+    with open(path, "rb") as f:
+        f.seek(tile.offset)
+        data = f.read(need)
+    if len(data) < need:
+        raise InputError(f"{path}: truncated PPM ({len(data)} of {need} pixel bytes)")
+    a = np.frombuffer(data, ">u2").reshape(h, w, 3).astype(np.float64)
+    samples = np.rint(np.minimum(a, maxval) * (65535.0 / maxval)).astype(np.uint16)
+    return samples, 65535, False, False
 
 
 def _decode_plain(im):

@@ -33,7 +33,6 @@ from numba import njit
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
-MAX_SLOPE = 2.0  # see seed()
 FAR = 2.5  # node units, see _far()
 HALF = 0.75  # node units: covers the gap between crossings on consecutive rows up to 48 degrees
 

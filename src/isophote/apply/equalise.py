@@ -98,10 +98,11 @@ def segment_moments(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     x1, y1 = (p1 - p0).T
     x2, y2 = (p2 - p0).T
     x3, y3 = (p3 - p0).T
-    # ∫ x dy = ∫ (x0 + X) dY over the curve relative to P0: x0 * y3 for the first part, and
-    # ∫ X dY = [chord trapezoid] + 3/20 (X1 (-Y2 - Y3) + X2 (Y1 - 2 Y3) + X3 (Y1 + 2 Y2)).
+    # ∫ x dy = ∫ (x0 + X) dY = x0 Y3 + ∫ X dY with X, Y relative to P0, and
+    # ∫ X dY = X3 Y3 - ∫ Y dX = X3 Y3 / 2 - 3/20 (X1 (-Y2 - Y3) + X2 (Y1 - 2 Y3) + X3 (Y1 + 2 Y2))
+    # (the bracket is 20/3 of the area between the curve and its chord: AreaPen's term).
     chord = 0.5 * x3 * y3
-    bulge = 0.15 * (x1 * (-y2 - y3) + x2 * (y1 - 2.0 * y3) + x3 * (y1 + 2.0 * y2))
+    bulge = -0.15 * (x1 * (-y2 - y3) + x2 * (y1 - 2.0 * y3) + x3 * (y1 + 2.0 * y2))
     return x0 * y3 + chord + bulge
 
 
@@ -216,6 +217,7 @@ def _render_channel(channel: Channel, width: int, height: int) -> np.ndarray:
 PROBE_SHIFT = 50.0  # grey levels a probe moves a cap (towards mid-scale, so nothing clips)
 PROBE_CODE_SPAN = 1.5  # probe 2 multiplies the shift by 1 .. 1 + span, one factor per cap
 F_MIN = 1e-3  # pixels whose cap weight is below this are treated as lying on the level
+LEVEL_RIDGE = 1.0  # pixels: weight of a level's current value in the least-squares refit
 
 
 class _PixelModel:
@@ -317,6 +319,18 @@ def _cap_bounds(channel: Channel, levels: np.ndarray):
     return ext[b], ext[b + 1]
 
 
+def _caps_in_bands(caps, channel: Channel, levels) -> np.ndarray:
+    """Cap values on the 1/64 grid of the file format, inside their bands where the band is
+    wider than one grid step (else the nearest grid value)."""
+    lo, hi = _cap_bounds(channel, levels)
+    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    q = _quantise_values(np.clip(caps, lo, hi))
+    qlo, qhi = np.ceil(lo * VALUE_QUANT) / VALUE_QUANT, np.floor(hi * VALUE_QUANT) / VALUE_QUANT
+    room = qlo <= qhi
+    q = np.where(room, np.clip(q, qlo, qhi), q)
+    return np.clip(q, 0.0, 255.0)
+
+
 def _fit(model: _PixelModel, channel: Channel, levels, caps, iterations: int):
     """Alternating least squares of the model's values against the rank targets."""
     L, K = model.L, model.K
@@ -339,12 +353,13 @@ def _fit(model: _PixelModel, channel: Channel, levels, caps, iterations: int):
                 rhs += np.bincount(ia, weights=wa * rhs_t, minlength=L)
                 for ib, wb in ((model.il, model.wl), (model.ir, model.wr)):
                     A += np.bincount(ia * L + ib, weights=wa * wb, minlength=L * L).reshape(L, L)
-            used = np.diag(A) > 1e-9
-            new = levels.copy()
-            if used.any():
-                Au = A[np.ix_(used, used)] + 1e-9 * np.eye(int(used.sum()))
-                bu = rhs[used] - A[np.ix_(used, ~used)] @ levels[~used]
-                new[used] = np.linalg.solve(Au, bu)
+            # a ridge towards the current levels (LEVEL_RIDGE pixels' worth): a level that few
+            # pixels depend on must not fly off; then each level stays between its neighbours
+            A[np.diag_indices(L)] += LEVEL_RIDGE
+            rhs += LEVEL_RIDGE * levels
+            new = np.linalg.solve(A, rhs)
+            ext = np.concatenate([[LEVEL_MIN], levels, [LEVEL_MAX]])
+            new = np.clip(new, ext[:-2], ext[2:])
             levels = monotone_levels(new)
     return levels, caps
 
@@ -356,8 +371,9 @@ def refine(channel: Channel, width: int, height: int, iterations: int = 8):
     model = _pixel_model(channel, width, height, r0)
     err = float(np.abs(model.predict(channel.levels, channel.cap_value) - r0.ravel()).max())
     levels, caps = _fit(model, channel, channel.levels.copy(), channel.cap_value.copy(), iterations)
-    out = replace(channel, levels=levels, cap_value=np.clip(_quantise_values(caps), 0.0, 255.0))
-    return out, {"model_error": err}
+    out = replace(channel, levels=levels, cap_value=_caps_in_bands(caps, channel, levels))
+    measured = histogram_stats(_render_channel(out, width, height))
+    return out, {"model_error": err, "measured": measured}
 
 
 # =============================================================================================
@@ -380,7 +396,8 @@ def equalise(vi: VectorImage, refine_render: bool = True, iterations: int = 8, i
     info : dict, optional
         Filled with ``areas`` (fraction of the image >= each old level), ``levels`` (old and
         new) and, with refinement, ``model_error`` (largest difference in grey levels between
-        the measured pixel model and the render).
+        the measured pixel model and the render) and ``measured``: :func:`histogram_stats` of
+        the equalised Y channel rendered at 1x.
 
     Returns
     -------

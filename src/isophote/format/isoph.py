@@ -594,7 +594,9 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
     for i in range(n_channels):
         summary = take(_CHANNEL.size, f"channel {i} summary")
         name, n_levels, base_band, n_contours, n_segments, n_caps = _CHANNEL.unpack(summary)
-        label = name.decode("latin-1")
+        # The name goes into messages before it is checked: a control byte would break the
+        # one-line promise, so anything but printable ASCII is shown escaped.
+        label = chr(name[0]) if 0x21 <= name[0] <= 0x7E else f"\\x{name[0]:02x}"
         if n_levels > MAX_LEVELS:
             raise LimitError(f"channel {label}: {n_levels} levels exceed the limit of {MAX_LEVELS}")
         if n_segments > MAX_SEGMENTS:
@@ -644,8 +646,18 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
 def _parse_meta(b: bytes) -> dict:
     if not b:
         return {}
+
+    def finite(text):  # JSON has no NaN or infinity, and the writer cannot write them back
+        value = float(text)
+        if not np.isfinite(value):
+            raise ValueError(f"{text} is not a finite number")
+        return value
+
+    def no_constant(name):
+        raise ValueError(f"{name} is not JSON")
+
     try:
-        meta = json.loads(b.decode("utf-8"))
+        meta = json.loads(b.decode("utf-8"), parse_float=finite, parse_constant=no_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as e:
         raise FormatError(f"meta is not valid UTF-8 JSON ({type(e).__name__})") from None
     if not isinstance(meta, dict):
