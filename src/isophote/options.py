@@ -80,8 +80,8 @@ class EncodeOptions:
             lv = getattr(self, name)
             if lv is None:
                 continue
-            if len(lv) > 1024:
-                raise OptionError(f"{name}: at most 1024 levels")
+            if not 1 <= len(lv) <= 1024:
+                raise OptionError(f"{name}: between 1 and 1024 levels")
             if any(not (0.0 < float(x) < 255.0) for x in lv):
                 raise OptionError(f"{name}: levels must lie strictly between 0 and 255")
             if any(float(b) <= float(a) for a, b in zip(lv, lv[1:])):
@@ -143,3 +143,14 @@ class RenderOptions:
 
 def option_names(cls) -> list[str]:
     return [f.name for f in fields(cls)]
+
+
+def make(cls, options: dict):
+    """cls(**options), with unknown keywords reported as an OptionError naming them."""
+    unknown = sorted(set(options) - set(option_names(cls)))
+    if unknown:
+        raise OptionError(
+            f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)} "
+            f"(known: {', '.join(option_names(cls))})"
+        )
+    return cls(**options)

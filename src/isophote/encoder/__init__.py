@@ -15,7 +15,7 @@ import numpy as np
 from ..colour import rgb_to_yuv
 from ..errors import InputError
 from ..model import Channel, VectorImage
-from ..options import EncodeOptions
+from ..options import EncodeOptions, make
 from .fit import fit_many
 from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
@@ -36,7 +36,7 @@ def encode(image, **options) -> VectorImage:
         on the 0..255 scale.
     **options : the fields of :class:`isophote.options.EncodeOptions`.
     """
-    opts = EncodeOptions(**options).resolved()
+    opts = make(EncodeOptions, options).resolved()
     pixels, depth = _as_pixels(image)
     return encode_pixels(pixels, depth, opts)
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..colour import yuv_to_rgb
 from ..errors import LimitError
-from ..options import RenderOptions
+from ..options import RenderOptions, make
 from .distance import NodeField, node_field
 from .fill import fill_strip
 from .flatten import flatten, segments
@@ -86,7 +86,7 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
 def render_float(vi, **options) -> np.ndarray:
     """Render to float64 samples on 0..255, (H, W, C) with the image's channels in RGB(A) or
     grey(+alpha) order, unquantised. Options: the fields of RenderOptions."""
-    return _render(vi, RenderOptions(**options), np.float64, lambda a: a)
+    return _render(vi, make(RenderOptions, options), np.float64, lambda a: a)
 
 
 def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
@@ -101,7 +101,7 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
     -------
     (H, W) for grey, else (H, W, C) ndarray: uint8 for depth 8, uint16 for depth 16.
     """
-    opts = RenderOptions(width=width, height=height, scale=scale, **options)
+    opts = make(RenderOptions, dict(width=width, height=height, scale=scale, **options))
     dtype = np.uint16 if opts.depth == 16 else np.uint8
     out = _render(vi, opts, dtype, lambda a: quantise(a, opts.depth))
     return out[..., 0] if out.shape[2] == 1 else out
