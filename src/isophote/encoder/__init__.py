@@ -122,14 +122,14 @@ def fit_isolines(iso: Isolines, snap: float):
     has_border = np.zeros(n_loops, bool)
     has_border[seg_loop[iso.border]] = True
 
-    # Pieces to fit: whole loops without border, and the isoline runs of the others.
-    piece_pts, piece_tol, piece_closed = [], [], []
-    plans = {}  # loop -> list of ("fit", piece index) or ("line", (m, 2) corner points)
+    # Pieces to fit: whole loops without border (taken in one slice), then the isoline runs
+    # of the loops that touch the border.
     closed_loops = np.flatnonzero(~has_border)
-    for i in closed_loops:
-        piece_pts.append(iso.points[offs[i] : offs[i + 1]])
-        piece_tol.append(tol[offs[i] : offs[i + 1]])
-        piece_closed.append(True)
+    in_closed = ~has_border[seg_loop]
+    piece_pts, piece_tol = [iso.points[in_closed]], [tol[in_closed]]
+    counts = [np.diff(offs)[closed_loops]]
+    plans = {}  # loop -> list of ("fit", piece index) or ("line", (m, 2) corner points)
+    n_pieces = len(closed_loops)
     for i in np.flatnonzero(has_border):
         pts = iso.points[offs[i] : offs[i + 1]]
         brd = iso.border[offs[i] : offs[i + 1]]
@@ -150,36 +150,32 @@ def fit_isolines(iso: Isolines, snap: float):
             if segb[start]:
                 plan.append(("line", _corners(pts[run])))
             else:
-                plan.append(("fit", len(piece_pts)))
+                plan.append(("fit", n_pieces))
                 piece_pts.append(pts[run])
                 piece_tol.append(tl[run])
-                piece_closed.append(False)
+                counts.append([len(run)])
+                n_pieces += 1
             start = stop
         plans[i] = plan
 
-    counts = np.array([len(p) for p in piece_pts], np.int64)
-    p_off = np.concatenate([[0], np.cumsum(counts)])
+    counts = np.concatenate([np.asarray(c, np.int64) for c in counts])
+    piece_closed = np.zeros(n_pieces, bool)
+    piece_closed[: len(closed_loops)] = True
     chains, c_off = fit_many(
         np.concatenate(piece_pts).astype(np.float64),
         np.concatenate(piece_tol).astype(np.float64),
-        p_off,
-        np.asarray(piece_closed, bool),
+        np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        piece_closed,
         snap,
     )
 
-    # Assemble in loop order.
-    out_pts, out_border = [], []
-    closed_index = np.full(n_loops, -1, np.int64)
-    closed_index[closed_loops] = np.arange(len(closed_loops))
-    for i in range(n_loops):
-        if closed_index[i] >= 0:
-            k = closed_index[i]
-            ch = chains[c_off[k] : c_off[k + 1]]
-            out_pts.append(ch)
-            out_border.append(np.zeros((len(ch) - 1) // 3, bool))
-            continue
+    # Assemble in loop order: the closed loops' chains are gathered in one go.
+    length = np.empty(n_loops, np.int64)
+    length[closed_loops] = np.diff(c_off)[: len(closed_loops)]
+    assembled = {}
+    for i, plan in plans.items():
         parts, flags = [], []
-        for kind, item in plans[i]:
+        for kind, item in plan:
             if kind == "fit":
                 ch = chains[c_off[item] : c_off[item + 1]]
                 parts.append(ch[1:] if parts else ch)
@@ -192,11 +188,25 @@ def fit_isolines(iso: Isolines, snap: float):
                 flags.append(np.ones((len(ch) - 1) // 3, bool))
         ch = np.vstack(parts)
         ch[-1] = ch[0]
-        out_pts.append(ch)
-        out_border.append(np.concatenate(flags))
-    counts = np.array([len(p) for p in out_pts], np.int64)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return np.vstack(out_pts), offsets, np.concatenate(out_border)
+        assembled[i] = (ch, np.concatenate(flags))
+        length[i] = len(ch)
+    offsets = np.concatenate([[0], np.cumsum(length)]).astype(np.int64)
+    points = np.empty((int(offsets[-1]), 2))
+    border = np.zeros((int(offsets[-1]) - n_loops) // 3, bool)
+    dst = _ranges(offsets[closed_loops], length[closed_loops])
+    points[dst] = chains[: c_off[len(closed_loops)]]
+    seg_off = (offsets - np.arange(n_loops + 1)) // 3
+    for i, (ch, fl) in assembled.items():
+        points[offsets[i] : offsets[i + 1]] = ch
+        border[seg_off[i] : seg_off[i + 1]] = fl
+    return points, offsets, border
+
+
+def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Concatenated index ranges [starts[k], starts[k] + lengths[k])."""
+    total = int(lengths.sum())
+    before = np.cumsum(lengths) - lengths
+    return np.repeat(starts - before, lengths) + np.arange(total)
 
 
 def _corners(pts: np.ndarray) -> np.ndarray:
