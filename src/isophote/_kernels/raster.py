@@ -15,9 +15,9 @@ is left of the first sample, gap n_cols right of the last).
 An edge going down (y1 > y0) adds +1; contours with their above side on the left then add
 up to the band index (see model.py).
 
-With ``crossings`` the kernel also records, per gap, the leftmost and rightmost source-edge
-crossing (x and the winding change): the exact isoline positions next to each sample,
-which seed the distance fields of the diffusion fill.
+With ``crossings`` the kernel also records, per gap, the leftmost and rightmost crossing (x
+and the winding change, 0 when the edge is a border stretch, which is no source): the exact
+isoline positions next to each sample, which seed the distance fields of the diffusion fill.
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
 
     Returns (band (n_rows, n_cols) int16, first_x, first_dw, last_x, last_dw, first_slope,
     last_slope), the last six (n_rows, n_cols + 1) arrays (empty unless ``crossings``): per
-    gap, the leftmost and rightmost crossing of a source edge (dw = 0 where the gap has none)
-    and the crossing edge's dx/dy.
+    gap, the leftmost and rightmost crossing (dw = 0 where the gap has none, or where that
+    crossing is a border edge's) and the crossing edge's dx/dy.
     """
     delta = np.zeros((n_rows, n_cols + 1), np.int32)
     if crossings:
@@ -80,14 +80,17 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
             elif k > n_cols:
                 k = n_cols
             delta[i, k] += dw
-            if crossings and is_src[e]:
+            if crossings:
+                # the nearest crossing of any edge; a border edge (no source) records dw = 0,
+                # so that a source beyond it is not taken for the sample's neighbour
+                sdw = dw if is_src[e] else 0
                 if x < fx[i, k]:
                     fx[i, k] = x
-                    fd[i, k] = dw
+                    fd[i, k] = sdw
                     fs[i, k] = slope
                 if x > lx[i, k]:
                     lx[i, k] = x
-                    ld[i, k] = dw
+                    ld[i, k] = sdw
                     ls[i, k] = slope
     band = np.empty((n_rows, n_cols), np.int16)
     for i in range(n_rows):

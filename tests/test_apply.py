@@ -1,0 +1,387 @@
+"""Applications of §5-6: exact areas, equalisation, warps (exactness, tolerance, clipping,
+orientation, caps, background), colour depth, and their command-line doors. Small synthetic
+images with known answers; the corpus numbers live in benchmarks/apply.py."""
+
+import math
+
+import numpy as np
+import pytest
+
+import isophote
+from isophote import cli
+from isophote.apply import equalise as E
+from isophote.apply import warp as W
+from isophote.imageio import write_image
+from isophote.model import Channel, VectorImage
+
+H, WD = 40, 56  # not square, so that transposition bugs show
+
+
+def _scene():
+    """A tilted ramp with a bright disc and a dark blob: levels, peaks and pits."""
+    y, x = np.mgrid[0:H, 0:WD] + 0.5
+    img = 30 + 3.2 * x + 1.5 * y
+    img += 90 * np.exp(-((x - 20) ** 2 + (y - 15) ** 2) / 40)
+    img -= 60 * np.exp(-((x - 42) ** 2 + (y - 28) ** 2) / 30)
+    rgb = np.stack([img, 0.8 * img + 20, 255 - img], axis=-1)
+    return np.clip(rgb, 0, 255).astype(np.uint8)
+
+
+@pytest.fixture(scope="module")
+def vi():
+    return isophote.encode(_scene())
+
+
+@pytest.fixture(scope="module")
+def grey_vi():
+    return isophote.encode(_scene()[..., 0])
+
+
+def _psnr(a, b, mask=None):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    d = (a - b) ** 2 if mask is None else (a - b)[mask] ** 2
+    return 10 * np.log10(255.0**2 / max(float(np.mean(d)), 1e-12))
+
+
+# ------------------------------------------------------------------------ exact areas
+
+
+def _polyline_area(chain, n=4000):
+    """Brute force: shoelace area of the chain sampled densely (left side positive)."""
+    pts = []
+    for k in range(0, len(chain) - 1, 3):
+        p0, p1, p2, p3 = chain[k : k + 4]
+        t = np.linspace(0, 1, n, endpoint=False)[:, None]
+        pts.append((1 - t) ** 3 * p0 + 3 * (1 - t) ** 2 * t * p1 + 3 * (1 - t) * t**2 * p2 + t**3 * p3)
+    p = np.vstack(pts)
+    x, y = p[:, 0], p[:, 1]
+    # y down: the area on the left of travel is -1/2 sum(x dy - y dx)
+    return -0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def test_bezier_areas_are_exact_against_dense_polylines():
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        n = int(rng.integers(1, 6))
+        chain = rng.uniform(0, 50, (1 + 3 * n, 2))
+        chain[-1] = chain[0]
+        ch = Channel.empty("Y", [100.0])
+        ch = Channel(name="Y", levels=np.array([100.0]), contour_level=np.zeros(1, np.int32),
+                     offsets=np.array([0, len(chain)]), points=chain, border=np.zeros(n, bool),
+                     parent=np.full(1, -1, np.int32), cap_band=ch.cap_band, cap_contour=ch.cap_contour,
+                     cap_xy=ch.cap_xy, cap_value=ch.cap_value)
+        assert E.contour_areas(ch)[0] == pytest.approx(_polyline_area(chain), rel=1e-4, abs=1e-3)
+
+
+def test_level_areas_match_the_rendered_level_sets(grey_vi):
+    y = grey_vi.channel("Y")
+    areas = E.level_areas(y, grey_vi.width, grey_vi.height) / (grey_vi.width * grey_vi.height)
+    r = E._render_channel(y, grey_vi.width, grey_vi.height)
+    for k, level in enumerate(y.levels):
+        assert areas[k] == pytest.approx((r >= level).mean(), abs=0.02), (k, level)
+    assert np.all(np.diff(areas) <= 1e-9)  # nested level sets
+
+
+# ------------------------------------------------------------------------ equalisation
+
+
+def test_histogram_stats_of_a_rectangular_histogram():
+    s = E.histogram_stats(np.arange(256).repeat(3))
+    assert s == {"empty": 0, "ks": pytest.approx(0.0, abs=1e-12), "entropy": pytest.approx(8.0)}
+    s = E.histogram_stats(np.full(100, 7))
+    assert s["empty"] == 255 and s["entropy"] == 0.0
+
+
+def test_pixel_equalisation_matches_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(3)
+    y = np.clip(rng.normal(90, 25, (40, 50)), 0, 255).astype(np.uint8)
+    assert np.array_equal(E.equalise_pixels(y), cv2.equalizeHist(y))
+
+
+def test_equalise_moves_levels_not_contours(vi):
+    info = {}
+    eq = E.equalise(vi, info=info)
+    y0, y1 = vi.channel("Y"), eq.channel("Y")
+    assert np.array_equal(y0.points, y1.points) and np.array_equal(y0.contour_level, y1.contour_level)
+    assert np.all(np.diff(y1.levels) > 0) and y1.levels[0] > 0 and y1.levels[-1] < 255
+    assert eq.channel("U").equals(vi.channel("U")) and eq.channel("V").equals(vi.channel("V"))
+    # caps stay inside their bands
+    lo, hi = E._cap_bounds(y1, y1.levels)
+    q = 1 / 64  # cap values live on the file format's 1/64 grid
+    assert np.all(y1.cap_value >= np.minimum(lo, hi) - q) and np.all(y1.cap_value <= np.maximum(lo, hi) + q)
+    assert set(info) >= {"area_above", "old_levels", "new_levels", "model_error", "measured"}
+
+
+def test_equalised_histogram_is_flatter_than_the_pixel_way(grey_vi):
+    w, h = grey_vi.width, grey_vi.height
+    before = E.histogram_stats(E._render_channel(grey_vi.channel("Y"), w, h))
+    fast = E.equalise(grey_vi, refine_render=False)
+    s_fast = E.histogram_stats(E._render_channel(fast.channel("Y"), w, h))
+    info = {}
+    full = E.equalise(grey_vi, info=info)
+    s_full = E.histogram_stats(E._render_channel(full.channel("Y"), w, h))
+    assert s_full == pytest.approx(info["measured"])
+    pixel = E.histogram_stats(E.equalise_pixels(_scene()[..., 0]))
+    assert s_fast["ks"] < before["ks"] and s_full["ks"] <= s_fast["ks"] + 1e-9
+    assert s_full["empty"] < pixel["empty"] and s_full["entropy"] > pixel["entropy"]
+
+
+def test_equalised_file_round_trips(vi, tmp_path):
+    eq = E.equalise(vi, refine_render=False)
+    eq.save(tmp_path / "eq.isoph")
+    assert isophote.load(tmp_path / "eq.isoph").equals(eq)
+
+
+# ------------------------------------------------------------------------ warps: maps
+
+
+def test_rotation_direction_and_perspective_corners():
+    r = W.rotation(90, (0, 0))
+    assert np.allclose(r(np.array([[1.0, 0.0]])), [[0.0, -1.0]])  # right of the centre goes up
+    src = [(0, 0), (10, 0), (10, 8), (0, 8)]
+    dst = [(1, 2), (9, 0), (11, 9), (-1, 7)]
+    p = W.perspective_from_points(src, dst)
+    assert np.allclose(p(np.asarray(src, float)), dst)
+    assert np.allclose(p.inverse()(p(np.array([[3.0, 4.0]]))), [[3.0, 4.0]])
+
+
+def test_swirl_inverse_and_jacobian():
+    s = W.Swirl((20, 15), 2.5, 30)
+    p = np.random.default_rng(1).uniform(0, 40, (50, 2))
+    assert np.allclose(s(s.inverse_map(p)), p, atol=1e-9)
+    num = W.Transform.jacobian(s, p)
+    eps = 1e-5
+    col0 = (s(p + [eps, 0]) - s(p - [eps, 0])) / (2 * eps)
+    assert np.allclose(num[:, :, 0], col0, atol=1e-5)
+
+
+# ------------------------------------------------------------------------ warps: contours
+
+
+def _on_curve(ch):
+    offs = ch.offsets
+    idx = np.concatenate([np.arange(offs[k], offs[k + 1], 3) for k in range(ch.n_contours)]) if ch.n_contours else []
+    return ch.points[idx]
+
+
+def test_identity_warp_changes_nothing(vi):
+    out = W.warp(vi, W.Affine([[1, 0, 0], [0, 1, 0]]))
+    for a, b in zip(vi.channels, out.channels):
+        assert np.array_equal(a.points, b.points) and a.base_band == b.base_band
+    assert np.array_equal(vi.render(), out.render())
+
+
+def test_affine_maps_move_control_points_exactly(vi):
+    out = W.warp(vi, W.Affine([[2, 0, 0], [0, 2, 0]]), canvas=(2 * WD, 2 * H))
+    for a, b in zip(vi.channels, out.channels):
+        assert np.array_equal(b.points, 2 * a.points) and np.array_equal(b.cap_xy, 2 * a.cap_xy)
+        assert np.array_equal(b.levels, a.levels) and b.base_band == a.base_band
+    # shifted onto a larger canvas: the same contours first, then the frame of the background
+    out = W.warp(vi, W.Affine([[2, 0, 3], [0, 2, 5]]), canvas=(2 * WD + 3, 2 * H + 5))
+    for a, b in zip(vi.channels, out.channels):
+        assert np.array_equal(b.points[: len(a.points)], 2 * a.points + [3, 5])
+        assert np.array_equal(b.cap_xy[: len(a.cap_xy)], 2 * a.cap_xy + [3, 5])
+        assert b.n_contours > a.n_contours and b.levels.shape[0] == a.levels.shape[0] + 1
+
+
+def test_reflection_keeps_the_orientation_rule(grey_vi):
+    out = W.warp(grey_vi, W.Affine([[-1, 0, WD], [0, 1, 0]]))
+    a0 = E.level_areas(grey_vi.channel("Y"), WD, H)
+    a1 = E.level_areas(out.channel("Y"), WD, H)
+    assert np.allclose(a0, a1, atol=1e-6)
+    assert _psnr(grey_vi.render()[:, ::-1], out.render()) > 40
+
+
+def test_quarter_turn_matches_rotated_pixels(grey_vi):
+    out = W.warp(grey_vi, W.rotation(90, (WD / 2, H / 2)), canvas="fit")
+    assert (out.width, out.height) == (H, WD)
+    assert _psnr(np.rot90(grey_vi.render()), out.render()) > 40
+
+
+def test_rotation_preserves_level_areas_and_fills_the_background(grey_vi):
+    out = W.warp(grey_vi, W.rotation(30, (WD / 2, H / 2)), canvas="fit", background=(200, 200, 200))
+    y0, y1 = grey_vi.channel("Y"), out.channel("Y")
+    added = len(y1.levels) - len(y0.levels)
+    assert added == 1
+    below = y1.levels[0] < y0.levels[0]  # the background level is below every level (or above)
+    a0 = E.level_areas(y0, WD, H)
+    a1 = E.level_areas(y1, out.width, out.height)
+    if below:  # the background lies under every old level: the level sets are the old ones
+        a1 = a1[1:]
+    else:  # it lies above them all: every level set also holds the uncovered area
+        a1 = a1[:-1] - (out.width * out.height - WD * H)
+    assert np.allclose(a0, a1, rtol=1e-3, atol=0.05)
+    r = out.render()
+    assert abs(int(r[0, 0]) - 200) <= 1 and abs(int(r[-1, -1]) - 200) <= 1
+
+
+def test_clipped_contours_stay_on_the_canvas_and_closed(vi):
+    out = W.warp(vi, W.rotation(25, (WD / 2, H / 2)))  # same canvas: corners leave it
+    for ch in out.channels:
+        p = _on_curve(ch)
+        assert np.all((p >= 0) & (p <= [WD, H]))
+        for k in range(ch.n_contours):
+            c = ch.chain(k)
+            assert np.array_equal(c[0], c[-1]) and (len(c) - 1) % 3 == 0
+        # every segment lying on the canvas border is flagged as border
+        segs, brd = W._segments(ch.points, ch.offsets)
+        on_edge = np.all((np.isclose(segs[:, :, 0], 0) | np.isclose(segs[:, :, 0], WD)), axis=1) | np.all(
+            (np.isclose(segs[:, :, 1], 0) | np.isclose(segs[:, :, 1], H)), axis=1)
+        assert np.all(ch.border[on_edge])
+
+
+def test_warped_files_round_trip(vi, tmp_path):
+    out = W.warp(vi, W.Swirl((WD / 2, H / 2), 2.0, 25.0))
+    out.save(tmp_path / "w.isoph")
+    assert isophote.load(tmp_path / "w.isoph").equals(out)
+
+
+def test_warp_matches_a_raster_rotation_of_the_render(vi):
+    from skimage.transform import warp as sk_warp
+
+    t = W.rotation(20, (WD / 2, H / 2))
+    inv = t.inverse()
+    big = vi.render(scale=4).astype(float)
+    s4 = W.Affine([[4, 0, 0], [0, 4, 0]])
+    inv4 = s4.inverse().then(t).then(s4).inverse()
+    ref = sk_warp(big, lambda q: inv4(q + 0.5) - 0.5, order=3, preserve_range=True)
+    ref = ref.reshape(H, 4, WD, 4, 3).mean(axis=(1, 3))
+    got = W.warp(vi, t).render().astype(float)
+    inside = np.zeros((H, WD), bool)
+    inside[10:-10, 10:-10] = True
+    assert _psnr(ref, got, inside) > 35
+
+
+def test_nonlinear_warp_stays_within_tolerance():
+    rng = np.random.default_rng(5)
+    segs = rng.uniform(5, 35, (30, 4, 2))
+    border = np.zeros(30, bool)
+    border[::5] = True
+    segs[border, 1] = segs[border, 0] + (segs[border, 3] - segs[border, 0]) / 3
+    segs[border, 2] = segs[border, 0] + 2 * (segs[border, 3] - segs[border, 0]) / 3
+    sw = W.Swirl((20, 20), 3.0, 25.0)
+    tol = 0.02
+    new, nb, src = W.move_segments(segs, border, sw, tol)
+    t = np.linspace(0, 1, 200)
+    for s in range(len(segs)):
+        exact = sw(W._bezier(np.repeat(segs[s][None], len(t), 0), t))
+        pieces = new[src == s]
+        assert np.all(nb[src == s] == border[s])
+        # pieces are in order and joined
+        assert np.allclose(pieces[1:, 0], pieces[:-1, 3])
+        m = 1000  # samples per piece: their spacing adds < tol / 4 to the measured distance
+        if border[s]:  # drawn as chords
+            dense = np.concatenate([np.linspace(p[0], p[3], m) for p in pieces])
+        else:
+            dense = np.concatenate([W._bezier(np.repeat(p[None], m, 0), np.linspace(0, 1, m)) for p in pieces])
+        step = np.hypot(*np.diff(dense, axis=0).T).max()
+        d = np.sqrt(((exact[:, None, :] - dense[None, :, :]) ** 2).sum(-1)).min(axis=1)
+        assert d.max() <= tol + step / 2 + 1e-9, (s, d.max(), step)
+
+
+def test_caps_move_with_the_map(grey_vi):
+    out = W.warp(grey_vi, W.Affine([[1, 0, 4], [0, 1, 3]]), canvas=(WD + 4, H + 3))
+    a, b = grey_vi.channel("Y"), out.channel("Y")
+    assert np.array_equal(b.cap_xy[: len(a.cap_xy)], a.cap_xy + [4, 3])
+    assert np.array_equal(b.cap_value[: len(a.cap_value)], a.cap_value)
+
+
+def test_perspective_and_swirl_render_sensibly(vi):
+    per = W.perspective_from_points([(0, 0), (WD, 0), (WD, H), (0, H)],
+                                    [(4, 3), (WD - 2, 0), (WD, H), (0, H - 4)])
+    for t in (per, W.Swirl((WD / 2, H / 2), 1.5, 20.0)):
+        out = W.warp(vi, t)
+        r = out.render()
+        assert r.shape == (H, WD, 3)
+        assert _psnr(vi.render()[15:25, 20:36], r[15:25, 20:36]) > 12  # the middle is still there
+
+
+def test_bad_transforms_are_refused(vi):
+    with pytest.raises(isophote.OptionError):
+        W.warp(vi, W.Affine([[1, 2, 0], [2, 4, 0]]))
+    with pytest.raises(isophote.OptionError):
+        W.warp(vi, W.Perspective([[1, 0, 0], [0, 1, 0], [-0.05, 0, 1]]))  # horizon crosses the image
+    with pytest.raises(isophote.OptionError):
+        W.warp(vi, W.rotation(10, (0, 0)), canvas=(0, 5))
+
+
+# ------------------------------------------------------------------------ colour depth
+
+
+def test_sixteen_bit_renders_have_intermediate_values(grey_vi):
+    crop = (8, 24, 16, 12)  # the smooth lower-left part of the ramp
+    r8 = grey_vi.render(scale=2, crop=crop, depth=8)
+    r16 = grey_vi.render(scale=2, crop=crop, depth=16)
+    assert r16.dtype == np.uint16
+    assert len(np.unique(r16)) >= 10 * len(np.unique(r8))
+    assert np.abs(r16 / 257.0 - r8).max() <= 0.5 + 1e-9
+
+
+def test_depth_is_independent_of_the_source_depth():
+    y, x = np.mgrid[0:24, 0:32]
+    img16 = (x * 2000 + y * 50).astype(np.uint16)
+    vi16 = isophote.encode(img16)
+    assert vi16.source_depth == 16
+    assert vi16.render(depth=8).dtype == np.uint8
+    vi8 = isophote.encode((img16 // 257).astype(np.uint8))
+    assert len(np.unique(vi8.render(depth=16))) > 4 * len(np.unique(vi8.render(depth=8)))
+
+
+# ------------------------------------------------------------------------ command line
+
+
+@pytest.fixture(scope="module")
+def isoph(tmp_path_factory, vi):
+    path = tmp_path_factory.mktemp("apply") / "scene.isoph"
+    vi.save(path)
+    return path
+
+
+@pytest.mark.parametrize("flags", [
+    ["--rotate", "15"],
+    ["--rotate", "-40", "--canvas", "fit", "--background", "255,0,0"],
+    ["--affine=-1,0,56,0,1,0"],
+    ["--perspective", "4,3 54,0 56,40 0,36"],
+    ["--perspective", "1,0.1,0,0,1,0,0.001,0,"],
+    ["--swirl", "2,20", "--canvas", "60x44"],
+])
+def test_cli_warp(isoph, tmp_path, capsys, flags):
+    out = tmp_path / "w.isoph"
+    assert cli.main(["warp", str(isoph), "-o", str(out), *flags]) == 0
+    vi = isophote.load(out)
+    assert vi.render().ndim == 3
+
+
+@pytest.mark.parametrize("flags", [
+    ["--rotate", "15", "--affine", "1,0,0,0,1,0"],
+    ["--perspective", "1,2,3"],
+    ["--swirl", "2,-1"],
+    ["--rotate", "5", "--canvas", "0x5"],
+    ["--affine", "1,0,0,0,0,0"],
+])
+def test_cli_warp_refuses_bad_options(isoph, tmp_path, capsys, flags):
+    out = tmp_path / "w.isoph"
+    assert cli.main(["warp", str(isoph), "-o", str(out), *flags]) == 2
+    assert not out.exists()
+    err = capsys.readouterr().err
+    assert err.startswith("isophote") and "Traceback" not in err
+
+
+def test_cli_equalize(isoph, tmp_path, capsys):
+    out = tmp_path / "eq.isoph"
+    assert cli.main(["equalize", str(isoph), "-o", str(out)]) == 0
+    assert "empty bins" in capsys.readouterr().out
+    assert cli.main(["equalise", str(isoph), "-o", str(out), "--fast", "--quiet"]) == 0
+    assert np.all(np.diff(isophote.load(out).channel("Y").levels) > 0)
+
+
+def test_cli_figures_quick(tmp_path, capsys):
+    png = tmp_path / "scene.png"
+    write_image(png, _scene().astype(float))
+    outdir = tmp_path / "figs"
+    assert cli.main(["figures", str(outdir), "--image", str(png), "--quick", "--quiet"]) == 0
+    names = {p.name for p in outdir.iterdir()}
+    for n in ("fig1a_original.png", "fig1c_diffusion.png", "fig2_Y_plane.png", "fig9_x8_vector.png",
+              "fig10b_by_levels_hist.png", "warp_rotate15_vector.png", "index.md"):
+        assert n in names
