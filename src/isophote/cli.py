@@ -319,6 +319,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="photograph to use (default: scikit-image's chelsea.png, a corpus photograph)")
     p.add_argument("--quick", action="store_true", help="smaller crops and fewer panels (a smoke test)")
     p.set_defaults(func=cmd_figures)
+
+    p = sub.add_parser("svg", parents=[common], help=".isoph -> SVG / SVGZ (preview + every contour)",
+                       description="Write an SVG 1.1 document: a flat-filled preview any viewer shows, and "
+                       "every contour of every channel with its level, hierarchy and caps, so that "
+                       "`isophote encode OUT.svg -o X.isoph` reads it back, edits included.")
+    p.add_argument("input", metavar="IN.isoph")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.svg", help="output .svg or .svgz")
+    p.set_defaults(func=cmd_svg)
     return parser
 
 
@@ -447,7 +455,8 @@ def _probe_format(path, depth: int, channels: int = 3) -> None:
 
 
 def _load(path):
-    from .format.isoph import load
+    """An .isoph, or an SVG / SVGZ written by isophote (told by its first bytes)."""
+    from . import load
 
     return load(path)
 
@@ -464,6 +473,13 @@ def cmd_encode(args) -> int:
 
     opts = _options(args, EncodeOptions, ENCODE_FLAGS).resolved()  # bad options fail before reading
     _check_output(args.output, args.input)
+    if _is_svg_file(args.input):
+        # an SVG written by isophote (edited or not) already holds the contours: re-import it
+        vi = _load(args.input)
+        save(vi, args.output)
+        _say(args, f"{args.output}: contours read back from {args.input} "
+                   f"({', '.join(f'{ch.name} {ch.n_contours}/{ch.n_segments}' for ch in vi.channels)})")
+        return 0
     progress = _Progress(args.quiet)
     t0 = time.perf_counter()
     progress(f"reading {args.input}")
@@ -485,6 +501,35 @@ def cmd_encode(args) -> int:
     ratio = out_bytes / in_bytes if in_bytes else float("inf")
     _say(args, f"{args.output}: {w}x{h}, contours/segments {counts}; {out_bytes:,} bytes, "
                f"{ratio:.2f} x the input's {in_bytes:,}; {seconds:.1f} s")
+    return 0
+
+
+def _is_svg_file(path) -> bool:
+    from .format.svg import is_svg
+
+    try:
+        with open(path, "rb") as f:
+            return is_svg(f.read(64))
+    except OSError:
+        return False  # read_image reports it
+
+
+# =============================================================================================
+# svg
+# =============================================================================================
+
+
+def cmd_svg(args) -> int:
+    from .format.svg import save_svg
+
+    ext = os.path.splitext(args.output)[1].lower()
+    if ext not in (".svg", ".svgz"):
+        raise OptionError(f"{args.output}: the svg command writes .svg or .svgz")
+    _check_output(args.output, args.input)
+    vi = _load(args.input)
+    save_svg(vi, args.output)
+    _say(args, f"{args.output}: {os.path.getsize(args.output):,} bytes, "
+               f"{sum(ch.n_contours for ch in vi.channels)} contours")
     return 0
 
 

@@ -1,0 +1,54 @@
+"""The svg subcommand and SVG input to encode and render (cli.py wiring of format/svg.py)."""
+
+import numpy as np
+import pytest
+
+from isophote.cli import main
+from isophote.imageio import write_image
+
+
+@pytest.fixture()
+def isoph(tmp_path):
+    yy, xx = np.mgrid[0:24, 0:32] + 0.5
+    img = np.stack([40 + 5 * xx, 60 + 6 * yy, 200 - 4 * xx], axis=-1)
+    src = tmp_path / "in.png"
+    write_image(src, img)
+    out = tmp_path / "a.isoph"
+    assert main(["encode", str(src), "-o", str(out), "-q"]) == 0
+    return out
+
+
+@pytest.mark.parametrize("ext", [".svg", ".svgz"])
+def test_svg_round_trip_gives_the_same_file(isoph, tmp_path, ext):
+    svg = tmp_path / ("a" + ext)
+    assert main(["svg", str(isoph), "-o", str(svg), "-q"]) == 0
+    back = tmp_path / "b.isoph"
+    assert main(["encode", str(svg), "-o", str(back), "-q"]) == 0
+    assert back.read_bytes() == isoph.read_bytes()
+
+
+def test_render_reads_svg_like_isoph(isoph, tmp_path):
+    from isophote.imageio import read_image
+
+    svg = tmp_path / "a.svg"
+    assert main(["svg", str(isoph), "-o", str(svg), "-q"]) == 0
+    for src, name in ((isoph, "x.png"), (svg, "y.png")):
+        assert main(["render", str(src), "-o", str(tmp_path / name), "-q"]) == 0
+    assert np.array_equal(read_image(tmp_path / "x.png").pixels, read_image(tmp_path / "y.png").pixels)
+
+
+def test_svg_refuses_other_outputs(isoph, tmp_path, capsys):
+    out = tmp_path / "a.png"
+    assert main(["svg", str(isoph), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and ".svg" in err[0]
+    assert not out.exists()
+
+
+def test_malformed_svg_input_is_a_clean_error(tmp_path, capsys):
+    bad = tmp_path / "bad.svg"
+    bad.write_text('<svg xmlns="http://www.w3.org/2000/svg"><path d="M 0 0 C"/></svg>')
+    out = tmp_path / "x.isoph"
+    assert main(["encode", str(bad), "-o", str(out)]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert not out.exists()
