@@ -1,0 +1,135 @@
+"""Speed and memory of isophote against its peers, measured in the same run (issue: performance).
+
+Prints, and writes to OUT/speed.md:
+  * encode astronaut (paper preset) against vtracer's high-fidelity trace of it;
+  * render it at 1x and 3840x3840 against resvg rendering vtracer's SVG at the same sizes,
+    with the peak memory of each render (a child process per measurement);
+  * time per megapixel for encode and render from 256^2 to 2048^2 (astronaut resized);
+  * render time for output scales 1x to 8x;
+  * `isophote --help` start-up time.
+Times are the best of --repeat runs, after a warm-up that compiles (or loads) the kernels.
+
+    .venv/bin/python benchmarks/speed.py [--repeat 3] [--out benchmarks/results] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from corpus import load_corpus  # noqa: E402
+from peers import VTRACER_SETTINGS, best_of  # noqa: E402
+
+CHILD = r"""
+import json, resource, sys, time
+import numpy as np
+sys.path.insert(0, {here!r})
+from corpus import load_corpus
+kind, size = sys.argv[1], int(sys.argv[2])
+img = load_corpus(("astronaut",))["astronaut"]
+if kind == "isophote":
+    import isophote
+    vi = isophote.encode(img)
+    vi.render(width=64)  # compile / load the kernels
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t = time.perf_counter(); vi.render(width=size); dt = time.perf_counter() - t
+else:
+    import resvg_py, vtracer
+    from peers import VTRACER_SETTINGS
+    h, w = img.shape[:2]
+    rgba = np.dstack([img, np.full((h, w), 255, np.uint8)])
+    svg = vtracer.convert_pixels_to_svg([tuple(p) for p in rgba.reshape(-1, 4).tolist()], size=(w, h), **VTRACER_SETTINGS)
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t = time.perf_counter(); resvg_py.svg_to_bytes(svg_string=svg, width=size, height=size); dt = time.perf_counter() - t
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps(dict(seconds=dt, peak_mb=peak / 1024, added_mb=(peak - base) / 1024)))
+"""
+
+
+def child(kind: str, size: int, repeat: int) -> dict:
+    best = None
+    for _ in range(repeat):
+        out = subprocess.run([sys.executable, "-c", CHILD.format(here=HERE), kind, str(size)],
+                             capture_output=True, text=True, check=True)
+        r = json.loads(out.stdout.strip().splitlines()[-1])
+        if best is None or r["seconds"] < best["seconds"]:
+            best = r
+    return best
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    ap.add_argument("--quick", action="store_true", help="fewer sizes, one repeat")
+    args = ap.parse_args(argv)
+    repeat = 1 if args.quick else args.repeat
+
+    import isophote
+    import vtracer
+    from PIL import Image
+
+    img = load_corpus(("astronaut",))["astronaut"]
+    h, w = img.shape[:2]
+    lines = ["# Speed (astronaut, paper preset)", ""]
+
+    def say(s=""):
+        print(s, flush=True)
+        lines.append(s)
+
+    isophote.encode(img[:64, :64]).render()  # compile or load the kernels
+    vi, enc = best_of(lambda: isophote.encode(img), repeat)
+    rgba = np.dstack([img, np.full((h, w), 255, np.uint8)])
+    pixels = [tuple(p) for p in rgba.reshape(-1, 4).tolist()]
+    _, venc = best_of(lambda: vtracer.convert_pixels_to_svg(pixels, size=(w, h), **VTRACER_SETTINGS), repeat)
+    say("| measure | isophote s | peer | peer s | ratio | isophote peak MB |")
+    say("|---|---|---|---|---|---|")
+    say(f"| encode 512x512 | {enc:.3f} | vtracer (high fidelity) | {venc:.3f} | {enc / venc:.2f} | - |")
+    for size in (512, 3840):
+        a = child("isophote", size, repeat)
+        b = child("resvg", size, repeat)
+        say(f"| render {size}x{size} | {a['seconds']:.3f} | resvg of vtracer's SVG | {b['seconds']:.3f} "
+            f"| {a['seconds'] / b['seconds']:.2f} | {a['peak_mb']:.0f} |")
+
+    say()
+    say("Scaling with image size (astronaut resized with Lanczos), seconds per megapixel:")
+    say()
+    say("| size | encode s | encode s/MP | render 1x s | render s/MP |")
+    say("|---|---|---|---|---|")
+    sizes = (256, 512, 1024) if args.quick else (256, 512, 1024, 2048)
+    for n in sizes:
+        im = np.asarray(Image.fromarray(img).resize((n, n), Image.LANCZOS))
+        v, te = best_of(lambda: isophote.encode(im), 1 if n > 1024 else repeat)
+        _, tr = best_of(lambda: v.render(), 1 if n > 1024 else repeat)
+        mp = n * n / 1e6
+        say(f"| {n}x{n} | {te:.2f} | {te / mp:.2f} | {tr:.2f} | {tr / mp:.2f} |")
+
+    say()
+    say("Render time against output size (astronaut master):")
+    say()
+    say("| scale | output | render s | s per output MP |")
+    say("|---|---|---|---|")
+    for s in ((1, 2, 4) if args.quick else (1, 2, 4, 8)):
+        _, tr = best_of(lambda: vi.render(scale=s), 1 if s > 4 else repeat)
+        say(f"| {s}x | {w * s}x{h * s} | {tr:.2f} | {tr / (w * h * s * s / 1e6):.2f} |")
+
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "isophote", "--help"], capture_output=True, check=True)
+    say()
+    say(f"`isophote --help`: {time.perf_counter() - t:.2f} s (including the interpreter's start).")
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "speed.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
