@@ -34,7 +34,7 @@ MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
 FAR = 2.5  # node units, see _far()
-HALF = 0.75  # node units: covers the gap between crossings on consecutive rows up to 48 degrees
+HALF = 0.25  # node units; measured at 1x (astronaut, coffee; PSNR dB / FLIP): 0 39.54/0.0466 39.33/0.0452, 0.25 39.58/0.0468 39.36/0.0453, 0.75 39.52/0.0474 39.34/0.0458, 1.0 39.29/0.0479 39.08/0.0465
 
 _OFFS = {
     MODE_EUCLIDEAN: [(-1, -1), (-1, 0), (-1, 1), (0, -1)],
