@@ -314,8 +314,11 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 b = 0
             elif b > nl:
                 b = nl
-            lo_b = levels[b - 1] if b >= 1 else levels[0] - (levels[1] - levels[0] if nl > 1 else 10.0)
-            hi_b = levels[b] if b < nl else levels[nl - 1] + (levels[nl - 1] - levels[nl - 2] if nl > 1 else 10.0)
+            if nl == 0:  # a channel without levels (a hostile or degenerate file): no bands
+                lo_b, hi_b = 0.0, 255.0
+            else:
+                lo_b = levels[b - 1] if b >= 1 else levels[0] - (levels[1] - levels[0] if nl > 1 else 10.0)
+                hi_b = levels[b] if b < nl else levels[nl - 1] + (levels[nl - 1] - levels[nl - 2] if nl > 1 else 10.0)
             mid = 0.5 * (lo_b + hi_b)
             if flat:
                 out[a, bcol] = mid

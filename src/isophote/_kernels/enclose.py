@@ -25,6 +25,7 @@ def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, ro
     nloops = area.shape[0]
     wind = np.zeros(nloops, np.int64)
     touched = np.empty(nloops, np.int64)
+    stamp = np.full(nloops, -1, np.int64)  # query that last listed the loop in `touched`
     out = np.full(nq, -1, np.int64)
     for q in range(nq):
         k = int(np.floor(py[q] * 2.0))
@@ -45,7 +46,9 @@ def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, ro
             if (ya <= py[q] < yb) or (yb <= py[q] < ya):
                 xc = x0[s] + (py[q] - ya) * (x1[s] - x0[s]) / (yb - ya)
                 if xc < px[q]:
-                    if wind[lp] == 0:
+                    # list each loop once per query, however often its winding returns to 0
+                    if stamp[lp] != q:
+                        stamp[lp] = q
                         touched[nt] = lp
                         nt += 1
                     wind[lp] += 1 if yb > ya else -1

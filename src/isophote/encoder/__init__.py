@@ -51,6 +51,8 @@ def _as_pixels(image):
         raise InputError("image has no pixels")
     if a.shape[0] * a.shape[1] > MAX_PIXELS:
         raise InputError(f"image has more than {MAX_PIXELS} pixels")
+    if np.iscomplexobj(a):
+        raise InputError("image must be real-valued, got complex samples")
     if a.dtype == np.uint8 or a.dtype == bool:
         return a.astype(np.float64) * (255.0 if a.dtype == bool else 1.0), 8
     if a.dtype == np.uint16:

@@ -149,12 +149,25 @@ def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
     segs, border = segments(ch)
     # flatten finely enough for both the node grid and the target samples
     r = node_resolution(vi.width, vi.height, max(vp.kx, vp.ky) / vp.s)
+    check_nodes(vi, r, opts)
     tol = 0.05 / max(r, vp.kx, vp.ky)
     edges = flatten(segs, border, tol)
     return node_field(vi, ch, edges, r, opts.distance)
 
 
 NODE_BUDGET = 6_000_000
+
+
+def check_nodes(vi, r: int, opts: RenderOptions) -> None:
+    """The distance grid covers the whole canvas whatever the output size (so that crops equal
+    the full render): about 60 bytes a node. A canvas needing more nodes than max_pixels is
+    refused before anything is allocated (a tiny file can declare a huge canvas)."""
+    nodes = int(vi.width) * int(vi.height) * r * r
+    if nodes > opts.max_pixels:
+        raise LimitError(
+            f"the {vi.width}x{vi.height} canvas needs {nodes:,} distance nodes, more than "
+            f"{opts.max_pixels:,}; raise max_pixels (--max-pixels) to allow it"
+        )
 
 
 def node_resolution(width: int, height: int, scale: float) -> int:
