@@ -30,6 +30,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .regions import _find
+
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
@@ -212,14 +214,6 @@ def propagate_ref(F, band, offs, mode, max_iter=10000):
 
 
 @njit(cache=True, nogil=True)
-def _root(parent, i):
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]
-        i = parent[i]
-    return i
-
-
-@njit(cache=True, nogil=True)
 def label_nodes(band):
     """8-connected regions of equal band: (labels (nr, nc) int32, count)."""
     nr, nc = band.shape
@@ -232,15 +226,15 @@ def label_nodes(band):
                 ii = i + di
                 jj = j + dj
                 if 0 <= ii < nr and 0 <= jj < nc and band[ii, jj] == b:
-                    ra = _root(parent, k)
-                    rb = _root(parent, ii * nc + jj)
+                    ra = _find(parent, k)
+                    rb = _find(parent, ii * nc + jj)
                     if ra != rb:
                         parent[max(ra, rb)] = min(ra, rb)
     labels = np.empty((nr, nc), np.int32)
     remap = np.full(nr * nc, -1, np.int64)
     m = 0
     for k in range(nr * nc):
-        r = _root(parent, k)
+        r = _find(parent, k)
         if remap[r] < 0:
             remap[r] = m
             m += 1
