@@ -75,7 +75,9 @@ needs L > 0).
 ``meta`` holds ``VectorImage.meta`` as JSON with sorted keys and no spaces, so that equal
 dicts give equal bytes. It round-trips as JSON does: tuples come back as lists and keys as
 strings; NumPy scalars and arrays are written as numbers and lists; anything else, NaN and
-infinity included, cannot be written. ``VectorImage.equals`` ignores meta.
+infinity included, cannot be written, and a reader refuses them too (``NaN``, ``Infinity``
+and ``1e400`` are not JSON numbers), so whatever loads can be saved again.
+``VectorImage.equals`` ignores meta.
 
 Payload
 -------

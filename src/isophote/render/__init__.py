@@ -158,15 +158,22 @@ def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
 NODE_BUDGET = 6_000_000
 
 
+NODE_BYTES = 120  # peak bytes per distance node: fields 48, crossings 52 (transient), the rest 20
+
+
 def check_nodes(vi, r: int, opts: RenderOptions) -> None:
     """The distance grid covers the whole canvas whatever the output size (so that crops equal
-    the full render): about 60 bytes a node. A canvas needing more nodes than max_pixels is
-    refused before anything is allocated (a tiny file can declare a huge canvas)."""
+    the full render), at about NODE_BYTES a node at peak. A canvas needing more than
+    max(max_pixels / 8, 1 million) nodes (12.5 million, 1.5 GB, by default: a 4500 x 2800
+    photograph at 1x) is refused before anything is allocated; a tiny file can declare a huge
+    canvas."""
     nodes = int(vi.width) * int(vi.height) * r * r
-    if nodes > opts.max_pixels:
+    limit = max(opts.max_pixels // 8, 1_000_000)  # a small canvas is always fine
+    if nodes > limit:
         raise LimitError(
-            f"the {vi.width}x{vi.height} canvas needs {nodes:,} distance nodes, more than "
-            f"{opts.max_pixels:,}; raise max_pixels (--max-pixels) to allow it"
+            f"the {vi.width}x{vi.height} canvas needs {nodes:,} distance nodes (about "
+            f"{nodes * NODE_BYTES / 2**30:.1f} GiB), more than {limit:,}; raise max_pixels "
+            f"(--max-pixels) to at least {8 * nodes:,} to allow it"
         )
 
 
