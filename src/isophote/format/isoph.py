@@ -752,14 +752,17 @@ def _check_semantics(label, n_levels, contour_level, parent, cap_band, cap_conto
 # =============================================================================================
 
 
-def _dumps(vi: VectorImage, compression: int) -> bytes:
+def check_image_kind(vi, too_big=LimitError) -> None:
+    """The image-level rules every writer shares (this module and format/svg.py): a
+    VectorImage, a size within the limits (``too_big`` is raised beyond them), a known colour,
+    source depth and channel layout."""
     if not isinstance(vi, VectorImage):
         raise FormatError(f"expected a VectorImage, got {type(vi).__name__}")
     width, height = int(vi.width), int(vi.height)
     if width < 1 or height < 1:
         raise FormatError(f"image size {width} x {height} is empty")
     if width > MAX_WIDTH or height > MAX_HEIGHT:
-        raise LimitError(f"image size {width} x {height} exceeds the {MAX_WIDTH} x {MAX_HEIGHT} limit")
+        raise too_big(f"image size {width} x {height} exceeds the {MAX_WIDTH} x {MAX_HEIGHT} limit")
     if vi.colour not in COLOUR_CODES:
         raise FormatError(f"unknown colour {vi.colour!r} (grey or yuv)")
     if vi.source_depth not in SOURCE_DEPTHS:
@@ -767,6 +770,11 @@ def _dumps(vi: VectorImage, compression: int) -> bytes:
     names = tuple(getattr(ch, "name", None) for ch in vi.channels)
     if names not in CHANNEL_LAYOUTS[vi.colour]:
         raise FormatError(f"channels {names} do not fit colour {vi.colour!r}")
+
+
+def _dumps(vi: VectorImage, compression: int) -> bytes:
+    check_image_kind(vi)
+    width, height = int(vi.width), int(vi.height)
     meta = _meta_bytes(vi.meta)
 
     infos, parts = [], []

@@ -138,6 +138,7 @@ from .isoph import (
     SOURCE_DEPTHS,
     _check_levels,
     _check_semantics,
+    check_image_kind,
     _meta_bytes,
     _parse_meta,
 )
@@ -280,17 +281,7 @@ def is_svg(head: bytes) -> bool:
 
 
 def _check_image(vi) -> None:
-    if not isinstance(vi, VectorImage):
-        raise FormatError(f"expected a VectorImage, got {type(vi).__name__}")
-    if not (1 <= int(vi.width) <= MAX_WIDTH and 1 <= int(vi.height) <= MAX_HEIGHT):
-        raise FormatError(f"image size {vi.width} x {vi.height} is outside the limits")
-    if vi.colour not in COLOUR_CODES:
-        raise FormatError(f"unknown colour {vi.colour!r} (grey or yuv)")
-    if vi.source_depth not in SOURCE_DEPTHS:
-        raise FormatError(f"source depth {vi.source_depth} is not 8 or 16")
-    names = tuple(getattr(ch, "name", None) for ch in vi.channels)
-    if names not in CHANNEL_LAYOUTS[vi.colour]:
-        raise FormatError(f"channels {names} do not fit colour {vi.colour!r}")
+    check_image_kind(vi, too_big=FormatError)
     for ch in vi.channels:
         label = ch.name
         levels = np.asarray(ch.levels)
