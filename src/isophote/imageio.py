@@ -104,7 +104,7 @@ def read_image(path) -> Raster:
         raise InputError(f"{name}: permission denied") from None
     except _bomb_errors() as e:
         raise LimitError(f"{name}: {_one_line(e)}") from None
-    except _unidentified() as e:
+    except _unidentified():
         if _is_empty(name):
             raise InputError(f"{name}: empty file") from None
         raise InputError(f"{name}: not an image in a format isophote reads ({', '.join(READ_FORMATS)})") from None

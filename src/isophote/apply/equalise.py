@@ -94,7 +94,7 @@ def segment_moments(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
     first = np.repeat(offsets[:-1], counts) + 3 * within
     p0, p1, p2, p3 = (points[first + i] for i in range(4))
-    x0, y0 = p0[:, 0], p0[:, 1]
+    x0 = p0[:, 0]
     x1, y1 = (p1 - p0).T
     x2, y2 = (p2 - p0).T
     x3, y3 = (p3 - p0).T
@@ -314,7 +314,6 @@ def _cap_bounds(channel: Channel, levels: np.ndarray):
     """(K,) lower and upper bound of each cap value: its band's two levels (the scale's ends
     for the bands below the first and above the last level)."""
     b = channel.cap_band.astype(np.int64)
-    L = levels.shape[0]
     ext = np.concatenate([[0.0], levels, [255.0]])
     return ext[b], ext[b + 1]
 
