@@ -88,3 +88,91 @@ def innermost_enclosing_ref(px, py, exclude, loops, area, level):
                     best = i
         out.append(best)
     return np.asarray(out, np.int64)
+
+
+SWEEP_NUDGE = 2.0**-21  # scanlines sit this far below the sample rows (see _kernels/raster.py)
+
+
+@njit(cache=True, nogil=True)
+def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loops, n_rows,
+                    qx, qrow):
+    """Parents of all loops, and the innermost loop around query points on sample rows, in one
+    left-to-right sweep per half-pixel row (linear in the number of crossings).
+
+    Along the scanline y = k/2 + SWEEP_NUDGE the crossings of non-crossing loops nest like
+    parentheses: a loop is entered at its first crossing and left at its next, and what is
+    open when it is entered is its parent. Crossings at the same x (loops sharing a stretch
+    of border) leave before they enter, and enter outer (lower) levels first.
+    Query q sits at (qx[q], qrow[q] / 2); queries must be sorted by (qrow, qx).
+    Returns (parent (n_loops,), seen (n_loops,) bool, answer (nq,)); a loop no scanline
+    crosses has seen False.
+    """
+    parent = np.full(n_loops, -1, np.int64)
+    seen = np.zeros(n_loops, np.bool_)
+    nq = qx.shape[0]
+    answer = np.full(nq, -1, np.int64)
+    stack = np.empty(n_loops + 1, np.int64)
+    on_stack = np.zeros(n_loops, np.bool_)
+    q = 0
+    for k in range(n_rows):
+        yc = 0.5 * k + SWEEP_NUDGE
+        a0 = row_start[k]
+        a1 = row_start[k + 1]
+        xs = np.empty(a1 - a0)
+        ls = np.empty(a1 - a0, np.int64)
+        n = 0
+        for a in range(a0, a1):
+            s = row_order[a]
+            ya = y0[s]
+            yb = y1[s]
+            if (ya <= yc < yb) or (yb <= yc < ya):
+                xs[n] = x0[s] + (yc - ya) * (x1[s] - x0[s]) / (yb - ya)
+                ls[n] = seg_loop[s]
+                n += 1
+        order = np.argsort(xs[:n], kind="mergesort")
+        sp = 0
+        while q < nq and qrow[q] < k:
+            q += 1  # rows without a scanline of their own keep the -1 answer
+        i = 0
+        while i <= n:
+            xnext = xs[order[i]] if i < n else np.inf
+            while q < nq and qrow[q] == k and qx[q] < xnext:
+                answer[q] = stack[sp - 1] if sp > 0 else -1
+                q += 1
+            if i == n:
+                break
+            j = i
+            while j < n and xs[order[j]] == xnext:
+                j += 1
+            # leave: the group's loops that are open, innermost first
+            changed = True
+            while changed:
+                changed = False
+                for g in range(i, j):
+                    lp = ls[order[g]]
+                    if sp > 0 and stack[sp - 1] == lp and on_stack[lp]:
+                        sp -= 1
+                        on_stack[lp] = False
+                        ls[order[g]] = -1
+                        changed = True
+            # enter: the rest, lower levels first
+            while True:
+                best = -1
+                for g in range(i, j):
+                    lp = ls[order[g]]
+                    if lp >= 0 and (best < 0 or level[lp] < level[ls[order[best]]]):
+                        best = g
+                if best < 0:
+                    break
+                lp = ls[order[best]]
+                ls[order[best]] = -1
+                if not seen[lp]:
+                    seen[lp] = True
+                    parent[lp] = stack[sp - 1] if sp > 0 else -1
+                stack[sp] = lp
+                sp += 1
+                on_stack[lp] = True
+            i = j
+        for g in range(sp):
+            on_stack[stack[g]] = False
+    return parent, seen, answer

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from ..model import CAP_RAMP
-from .._kernels.enclose import innermost_enclosing
+from .._kernels.enclose import innermost_enclosing, sweep_enclosing
 from .._kernels.regions import label_regions, region_stats
 from .isolines import Isolines
 
@@ -105,11 +105,15 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     area = loop_areas(iso)
     x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows = segment_table(iso)
     lev_loop = iso.level.astype(np.int64)
-    # one query point per loop: the midpoint of its first non-border, non-horizontal segment
-    cand = np.flatnonzero(~iso.border & (y0 != y1))
+    # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
+    # crosses asks along a ray from the midpoint of one of its segments instead
+    parent, seen, _ = sweep_enclosing(
+        x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows,
+        np.zeros(0), np.zeros(0, np.int64),
+    )
+    cand = np.flatnonzero(~iso.border & (y0 != y1) & ~seen[seg_loop])
     has_q, first = np.unique(seg_loop[cand], return_index=True)
     qs = cand[first]
-    parent = np.full(c, -1, np.int64)
     if qs.size:
         parent[has_q] = innermost_enclosing(
             0.5 * (x0[qs] + x1[qs]), 0.5 * (y0[qs] + y1[qs]), has_q.astype(np.int64),
@@ -160,10 +164,23 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
         cap_value = np.where(single, fitted, np.asarray(cap_value, np.float64))
     r, cc = np.divmod(cap_idx, wp)
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
-    cap_contour = innermost_enclosing(
-        cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_idx), -1, np.int64),
-        x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
-    ) if c else np.full(len(cap_idx), -1, np.int64)
+    cap_contour = np.full(len(cap_idx), -1, np.int64)
+    if c and len(cap_idx):
+        # caps sit on sample rows: the same sweep answers them (the bottom row, which has no
+        # scanline of its own, by rays)
+        qrow = np.rint(cap_xy[:, 1] * 2.0).astype(np.int64)
+        order = np.lexsort((cap_xy[:, 0], qrow))
+        _, _, ans = sweep_enclosing(
+            x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows,
+            cap_xy[order, 0].copy(), qrow[order],
+        )
+        cap_contour[order] = ans
+        late = np.flatnonzero(qrow >= n_rows)
+        if late.size:
+            cap_contour[late] = innermost_enclosing(
+                cap_xy[late, 0].copy(), cap_xy[late, 1].copy(), np.full(late.size, -1, np.int64),
+                x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+            )
     return Hierarchy(
         parent=parent.astype(np.int32),
         n_regions=m,
