@@ -224,26 +224,33 @@ def march_ref(vals, band, levels):
     return {k: a[order] for k, a in out.items()}
 
 
-@njit(cache=True, nogil=True)
 def link_loops(skey, ekey):
     """Follow segments into closed loops.
 
     Returns (order, loop_offsets): segments order[loop_offsets[i]:loop_offsets[i+1]] form loop
-    i in travel order. Each key must start exactly one segment and end exactly one.
-    Loops start at their segment of smallest start key (deterministic).
+    i in travel order. Each key must start exactly one segment and end exactly one (else
+    both arrays come back empty). Loops start at their segment of smallest start key
+    (deterministic). The sort and the look-up are NumPy's; the walk is compiled.
     """
+    skey = np.asarray(skey, np.int64)
+    ekey = np.asarray(ekey, np.int64)
     n = skey.shape[0]
-    srt = np.argsort(skey)
+    srt = np.argsort(skey, kind="stable")
     sk = skey[srt]
-    nxt = np.empty(n, np.int64)
-    for i in range(n):
-        j = np.searchsorted(sk, ekey[i])
-        if j >= n or sk[j] != ekey[i]:
-            return np.empty(0, np.int64), np.empty(0, np.int64)  # broken topology
-        nxt[i] = srt[j]
+    j = np.searchsorted(sk, ekey)
+    if n and (j.max() >= n or not np.array_equal(sk[np.minimum(j, n - 1)], ekey)):
+        return np.empty(0, np.int64), np.empty(0, np.int64)  # broken topology
+    return _walk(srt[j] if n else np.empty(0, np.int64), srt)
+
+
+@njit(cache=True, nogil=True)
+def _walk(nxt, srt):
+    n = nxt.shape[0]
     seen = np.zeros(n, np.bool_)
     order = np.empty(n, np.int64)
-    offs = [0]
+    offs = np.empty(n + 1, np.int64)
+    offs[0] = 0
+    n_loops = 0
     m = 0
     for q in range(n):
         i = srt[q]  # visiting in key order makes each loop start at its smallest key
@@ -255,5 +262,6 @@ def link_loops(skey, ekey):
             order[m] = j
             m += 1
             j = nxt[j]
-        offs.append(m)
-    return order, np.array(offs, np.int64)
+        n_loops += 1
+        offs[n_loops] = m
+    return order, offs[: n_loops + 1].copy()
