@@ -164,23 +164,10 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
         cap_value = np.where(single, fitted, np.asarray(cap_value, np.float64))
     r, cc = np.divmod(cap_idx, wp)
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
-    cap_contour = np.full(len(cap_idx), -1, np.int64)
-    if c and len(cap_idx):
-        # caps sit on sample rows: the same sweep answers them (the bottom row, which has no
-        # scanline of its own, by rays)
-        qrow = np.rint(cap_xy[:, 1] * 2.0).astype(np.int64)
-        order = np.lexsort((cap_xy[:, 0], qrow))
-        _, _, ans = sweep_enclosing(
-            x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows,
-            cap_xy[order, 0].copy(), qrow[order],
-        )
-        cap_contour[order] = ans
-        late = np.flatnonzero(qrow >= n_rows)
-        if late.size:
-            cap_contour[late] = innermost_enclosing(
-                cap_xy[late, 0].copy(), cap_xy[late, 1].copy(), np.full(late.size, -1, np.int64),
-                x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
-            )
+    cap_contour = innermost_enclosing(
+        cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_idx), -1, np.int64),
+        x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+    ) if c else np.full(len(cap_idx), -1, np.int64)
     return Hierarchy(
         parent=parent.astype(np.int32),
         n_regions=m,

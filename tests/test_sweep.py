@@ -1,0 +1,42 @@
+"""The sweep that builds the hierarchy (_kernels/enclose.py sweep_enclosing) against rays
+(innermost_enclosing, itself tested against its NumPy twin in test_kernels.py)."""
+
+import numpy as np
+import pytest
+import skimage
+
+from isophote._kernels.enclose import innermost_enclosing
+from isophote.encoder.hierarchy import build_hierarchy, loop_areas, segment_table
+from isophote.encoder.isolines import find_isolines
+from isophote.encoder.levels import preset_levels
+from isophote.encoder.mapping import map_pixels
+
+
+def images():
+    rng = np.random.default_rng(5)
+    yy, xx = np.mgrid[0:48, 0:48] + 0.5
+    rings = 128 + 100 * np.sin(np.hypot(xx - 20.3, yy - 25.1) / 2.0)
+    return {
+        "camera": skimage.data.camera()[120:200, 200:280].astype(float),
+        "noise": rng.normal(128, 45, (40, 40)).clip(0, 255),
+        "rings": rings,
+    }
+
+
+@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
+def test_sweep_parents_equal_ray_parents(name):
+    levels = preset_levels(10)
+    g, ge = map_pixels(images()[name], 0.5)
+    iso = find_isolines(g, ge, levels)
+    h = build_hierarchy(iso, levels)
+    x0, y0, x1, y1, seg_loop, rs, ro, n_rows = segment_table(iso)
+    cand = np.flatnonzero(~iso.border & (y0 != y1))
+    loops, first = np.unique(seg_loop[cand], return_index=True)
+    q = cand[first]
+    ref = np.full(iso.n_loops, -1, np.int64)
+    ref[loops] = innermost_enclosing(
+        0.5 * (x0[q] + x1[q]), 0.5 * (y0[q] + y1[q]), loops.astype(np.int64),
+        x0, y0, x1, y1, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+    )
+    assert iso.n_loops > 20
+    assert np.array_equal(h.parent, ref)
