@@ -94,26 +94,21 @@ SWEEP_NUDGE = 2.0**-21  # scanlines sit this far below the sample rows (see _ker
 
 
 @njit(cache=True, nogil=True)
-def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loops, n_rows,
-                    qx, qrow):
-    """Parents of all loops, and the innermost loop around query points on sample rows, in one
-    left-to-right sweep per half-pixel row (linear in the number of crossings).
+def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loops, n_rows):
+    """Parents of all loops, in one left-to-right sweep per half-pixel row (linear in the
+    number of crossings).
 
     Along the scanline y = k/2 + SWEEP_NUDGE the crossings of non-crossing loops nest like
     parentheses: a loop is entered at its first crossing and left at its next, and what is
     open when it is entered is its parent. Crossings at the same x (loops sharing a stretch
     of border) leave before they enter, and enter outer (lower) levels first.
-    Query q sits at (qx[q], qrow[q] / 2); queries must be sorted by (qrow, qx).
-    Returns (parent (n_loops,), seen (n_loops,) bool, answer (nq,)); a loop no scanline
-    crosses has seen False.
+    Returns (parent (n_loops,), seen (n_loops,) bool); a loop no scanline crosses has seen
+    False.
     """
     parent = np.full(n_loops, -1, np.int64)
     seen = np.zeros(n_loops, np.bool_)
-    nq = qx.shape[0]
-    answer = np.full(nq, -1, np.int64)
     stack = np.empty(n_loops + 1, np.int64)
     on_stack = np.zeros(n_loops, np.bool_)
-    q = 0
     for k in range(n_rows):
         yc = 0.5 * k + SWEEP_NUDGE
         a0 = row_start[k]
@@ -131,16 +126,9 @@ def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loo
                 n += 1
         order = np.argsort(xs[:n], kind="mergesort")
         sp = 0
-        while q < nq and qrow[q] < k:
-            q += 1  # rows without a scanline of their own keep the -1 answer
         i = 0
-        while i <= n:
-            xnext = xs[order[i]] if i < n else np.inf
-            while q < nq and qrow[q] == k and qx[q] < xnext:
-                answer[q] = stack[sp - 1] if sp > 0 else -1
-                q += 1
-            if i == n:
-                break
+        while i < n:
+            xnext = xs[order[i]]
             j = i
             while j < n and xs[order[j]] == xnext:
                 j += 1
@@ -175,4 +163,4 @@ def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loo
             i = j
         for g in range(sp):
             on_stack[stack[g]] = False
-    return parent, seen, answer
+    return parent, seen

@@ -107,10 +107,7 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     lev_loop = iso.level.astype(np.int64)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
-    parent, seen, _ = sweep_enclosing(
-        x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows,
-        np.zeros(0), np.zeros(0, np.int64),
-    )
+    parent, seen = sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows)
     cand = np.flatnonzero(~iso.border & (y0 != y1) & ~seen[seg_loop])
     has_q, first = np.unique(seg_loop[cand], return_index=True)
     qs = cand[first]
