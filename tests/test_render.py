@@ -68,6 +68,19 @@ def test_ramp_renders_back(ramps, kind):
     assert err.max() <= 2.0  # the outermost pixels: the frame is no isoline, still close
 
 
+def test_tone_curve_maps_rendered_values(ramps):
+    """A channel's tone curve applies per sample: the x ramp (10 + 6x) through a curve that
+    doubles slopes below 127.5 and clamps above comes back as that curve of the ramp."""
+    img, vi = ramps["x"]
+    tone = np.array([[0.0, 0.0], [127.5, 255.0], [255.0, 255.0]])
+    toned = replace(vi, channels=(replace(vi.channels[0], tone=tone),))
+    plain = render_float(vi)[..., 0]
+    out = render_float(toned)[..., 0]
+    np.testing.assert_allclose(out, np.clip(2.0 * plain, 0, 255), atol=1e-3)
+    assert not toned.equals(vi) and toned.equals(replace(vi, channels=(replace(vi.channels[0], tone=tone.copy()),)))
+    assert np.abs(out - np.clip(2.0 * img, 0, 255))[2:-2, 2:-2].max() <= 2.0
+
+
 @pytest.mark.parametrize("distance", ["euclidean", "manhattan", "geodesic"])
 def test_every_distance_mode_renders_the_ramp(ramps, distance):
     img, vi = ramps["x"]

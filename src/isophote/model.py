@@ -42,6 +42,12 @@ Caps
     ``cap_band``; ``cap_contour`` is the region's outer contour (-1 for the root region).
     A region with no contour at all is flat at cap_value.
 
+Tone
+    ``tone`` is None or a (K, 2) float64 array of knots (x, y), x strictly increasing,
+    y non-decreasing, both on the 0..255 scale, K >= 2: a monotone curve applied to the
+    channel's rendered values (piecewise linear; flat beyond the end knots). Edits that
+    remap the levels (equalisation) use it to shape the values between the contours.
+
 Storage
     A channel keeps its contours in flat arrays, not objects, so that a photograph's tens of
     thousands of contours cost no Python objects: contour k's chain is
@@ -87,6 +93,8 @@ class Channel:
         Cap annotations (see the module docstring).
     base_band : int
         Band of the root region (see the module docstring).
+    tone : (K, 2) float64 ndarray or None
+        Monotone tone curve applied to rendered values (see the module docstring).
     """
 
     name: str
@@ -101,6 +109,7 @@ class Channel:
     cap_xy: np.ndarray
     cap_value: np.ndarray
     base_band: int = 0
+    tone: np.ndarray | None = None
 
     @property
     def n_contours(self) -> int:
@@ -147,7 +156,15 @@ class Channel:
             a, b = getattr(self, f), getattr(other, f)
             if a.shape != b.shape or a.dtype != b.dtype or not np.array_equal(a, b):
                 return False
-        return True
+        if (self.tone is None) != (other.tone is None):
+            return False
+        return self.tone is None or (self.tone.shape == other.tone.shape and np.array_equal(self.tone, other.tone))
+
+    def apply_tone(self, values: np.ndarray) -> np.ndarray:
+        """The tone curve applied to rendered values (unchanged when there is none)."""
+        if self.tone is None:
+            return values
+        return np.interp(values, self.tone[:, 0], self.tone[:, 1]).astype(values.dtype, copy=False)
 
     @staticmethod
     def empty(name: str, levels, base_band: int = 0) -> "Channel":

@@ -115,13 +115,14 @@ def _render(vi, opts: RenderOptions, dtype, convert) -> np.ndarray:
     flat = opts.fill == "flat"
     n_out = (3 if vi.colour == "yuv" else 1) + (1 if vi.has_alpha else 0)
     out = np.empty((vp.out_h, vp.out_w, n_out), dtype)
+    tones = {ch.name: ch.tone for ch in vi.channels}
     with ThreadPoolExecutor(max_workers=2) as pool:
         fields = dict(zip((ch.name for ch in vi.channels),
                           pool.map(lambda ch: _channel_field(vi, ch, vp, opts), vi.channels)))
 
         def strip(r0):
             r1 = min(r0 + STRIP_ROWS, vp.out_h)
-            planes = {name: fill_strip(nf, vp, r0, r1, flat) for name, nf in fields.items()}
+            planes = {name: fill_strip(nf, vp, r0, r1, flat, tones[name]) for name, nf in fields.items()}
             out[r0:r1] = convert(_colour(vi, planes))
 
         list(pool.map(strip, range(0, vp.out_h, STRIP_ROWS)))

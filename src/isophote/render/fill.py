@@ -16,8 +16,9 @@ from .._kernels.diffuse import evaluate
 from .._kernels.raster import rasterise
 
 
-def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool) -> np.ndarray:
-    """Output rows [out_r0, out_r1) of one channel: (out_r1 - out_r0, out_w) float32."""
+def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool, tone=None) -> np.ndarray:
+    """Output rows [out_r0, out_r1) of one channel: (out_r1 - out_r0, out_w) float32.
+    tone: the channel's tone curve knots (model.py), applied per sample, or None."""
     s = vp.s
     n, m = (out_r1 - out_r0) * s, vp.out_w * s
     row0 = vp.row0 + out_r0 * s
@@ -33,6 +34,8 @@ def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool) -> np.ndarray:
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
     evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out)
+    if tone is not None:
+        out = np.interp(out, tone[:, 0], tone[:, 1]).astype(np.float32)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
     return out
