@@ -25,6 +25,7 @@ CONFIGS = [
     ("diffusion", "manhattan", 1),
     ("diffusion", "geodesic", 1),
     ("diffusion", "euclidean", 4),
+    ("linear", "euclidean", 1),
     ("flat", "euclidean", 1),
 ]
 

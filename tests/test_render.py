@@ -68,6 +68,39 @@ def test_ramp_renders_back(ramps, kind):
     assert err.max() <= 2.0  # the outermost pixels: the frame is no isoline, still close
 
 
+def test_g1_fill_follows_a_curved_profile_better_than_straight_lines():
+    """f(x) = 20 + 0.1 x^2: bands narrow to the right, so the straight-line blend has a kink
+    at every isoline; the G1 profile (slopes blended across each isoline) is closer to f at
+    4x and its slope changes less between neighbouring samples."""
+    yy, xx = centres(12, 44)
+    img = 20.3 + 0.1 * xx**2
+    vi = isophote.encode(img)
+    x4 = (np.arange(44 * 4) + 0.5) / 4
+    truth = 20.3 + 0.1 * x4**2
+    errs, kinks = {}, {}
+    for fill in ("diffusion", "linear"):
+        row = render_float(vi, scale=4, fill=fill)[24, :, 0]
+        inner = slice(64, -12)  # away from the frame and the widest bands on the left
+        errs[fill] = np.abs(row - truth)[inner].mean()
+        kinks[fill] = np.abs(np.diff(row, 2))[inner].max()
+    assert errs["diffusion"] < 0.5 * errs["linear"], errs
+    assert kinks["diffusion"] < 0.5 * kinks["linear"], kinks
+
+
+def test_g1_slopes_agree_on_both_sides_and_keep_ramps_straight():
+    from isophote._kernels.diffuse import _pchip_slope
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        s1, s2 = rng.uniform(0.1, 20, 2)
+        w1, w2 = rng.uniform(0.2, 30, 2)
+        m = _pchip_slope(s1, w1, s2, w2)
+        assert m == pytest.approx(_pchip_slope(s2, w2, s1, w1))  # one slope at the isoline
+        assert min(s1, s2) <= m <= max(s1, s2) + 1e-12 and m <= 3 * min(s1, s2)  # monotone
+        assert _pchip_slope(s1, w1, s1, w2) == pytest.approx(s1)  # a ramp stays a ramp
+        assert _pchip_slope(s1, w1, 0.0, 0.0) == s1  # unknown neighbour: the band's own slope
+
+
 def test_tone_curve_maps_rendered_values(ramps):
     """A channel's tone curve applies per sample: the x ramp (10 + 6x) through a curve that
     doubles slopes below 127.5 and clamps above comes back as that curve of the ramp."""

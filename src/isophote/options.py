@@ -88,7 +88,7 @@ class EncodeOptions:
                 raise OptionError(f"{name}: levels must be strictly increasing")
 
 
-FILLS = ("diffusion", "flat")
+FILLS = ("diffusion", "linear", "flat")
 DISTANCES = ("euclidean", "manhattan", "geodesic")
 DEPTHS = (8, 16)
 
@@ -100,7 +100,8 @@ class RenderOptions:
     width, height, scale : output size. One of width/height keeps the aspect ratio, both
         stretch; scale multiplies the (cropped) source size. Default: scale 1.
     crop : (x, y, w, h) in source pixels; the viewport of the master to render.
-    fill : "diffusion" (double diffusion, §4.2) or "flat" (Fig. 1b baseline).
+    fill : "diffusion" (double diffusion, §4.2, with G1 profiles across the isolines),
+        "linear" (the paper's straight-line blend of the two distances) or "flat" (Fig. 1b).
     distance : "euclidean", "manhattan" (the paper's §4.2) or "geodesic".
     supersample : s for s x s samples per output pixel, box-filtered (1 = point samples).
     depth : 8 or 16 bits per channel.

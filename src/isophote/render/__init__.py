@@ -153,7 +153,7 @@ def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
     check_nodes(vi, r, opts)
     tol = 0.05 / max(r, vp.kx, vp.ky)
     edges = flatten(segs, border, tol)
-    return node_field(vi, ch, edges, r, opts.distance)
+    return node_field(vi, ch, edges, r, opts.distance, smooth=opts.fill != "linear")
 
 
 NODE_BUDGET = 6_000_000

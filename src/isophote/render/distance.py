@@ -33,9 +33,10 @@ class NodeField:
     dmax: np.ndarray  # (R, 2) largest distance of each side per region
     capv: np.ndarray  # (R,) cap value per region, NaN where none
     nv: np.ndarray  # (nr, nc) float32 fill value at each node
+    smooth: bool  # G1 profiles across isolines (fill "diffusion") or straight lines ("linear")
 
 
-def node_field(vi, ch, edges, r: int, distance: str) -> NodeField:
+def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> NodeField:
     x0, y0, x1, y1, src = edges
     nr, nc = vi.height * r, vi.width * r
     band, *h = rasterise(x0 * r, y0 * r, x1 * r, y1 * r, src, 0, 0, nr, nc, True)
@@ -54,6 +55,6 @@ def node_field(vi, ch, edges, r: int, distance: str) -> NodeField:
     nv = np.empty((nr, nc), np.float32)
     evaluate(
         F, band, labels, dmax, capv, CAP_RAMP * r, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
-        ch.levels, mode, False, np.empty((0, 0), np.float32), nv,
+        ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth,
     )
-    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv)
+    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth)

@@ -2,7 +2,8 @@
 
 Double diffusion: at a sample in band b with distance t1 to the nearest lower source (value
 C_lo, the level below or a pit's minimum) and t2 to the nearest upper one (C_up),
-C = C_lo * t2 / (t1 + t2) + C_up * t1 / (t1 + t2). Flat fill gives every band the middle of
+C = C_lo * t2 / (t1 + t2) + C_up * t1 / (t1 + t2) (fill "linear"; the default "diffusion"
+bends that line into a G1 curve across the isolines, see _kernels/diffuse.py). Flat fill gives every band the middle of
 its two levels (Fig. 1b). Supersamples are averaged over each output pixel (a box filter, as
 in the paper's 4 x 4 supersampling).
 """
@@ -33,7 +34,7 @@ def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool, tone=None) -> np.nd
     xs = (vp.col0 + np.arange(m) + 0.5 + vp.offx) / vp.kx * nf.r
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
-    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out)
+    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out, nf.smooth)
     if tone is not None:
         out = np.interp(out, tone[:, 0], tone[:, 1]).astype(np.float32)
     if s > 1:
