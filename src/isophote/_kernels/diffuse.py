@@ -297,10 +297,38 @@ def _far(F, i, j):
 
 
 @njit(cache=True, nogil=True)
-def _across(F, nband, labels, dmax, capv, ramp, want, x, y, sx, sy, d):
+def band_widths(F, band, labels, dmax, capv, ramp):
+    """(nr, nc, 2) float32: per node, the width of its band through it and the band's step
+    (d0 + d1 and v1 - v0), or for a cap node its ramp length and rise (signed so that the
+    step runs upwards); (0, 0) where unknown. _across reads it."""
+    nr, nc = band.shape
+    bw = np.zeros((nr, nc, 2), np.float32)
+    for i in range(nr):
+        for j in range(nc):
+            d0 = F[0, D, i, j]
+            d1 = F[1, D, i, j]
+            if d0 != np.inf and d1 != np.inf:
+                bw[i, j, 0] = d0 + d1
+                bw[i, j, 1] = F[1, V, i, j] - F[0, V, i, j]
+            elif d0 != np.inf or d1 != np.inf:
+                k = labels[i, j]
+                cv = capv[k]
+                if np.isnan(cv):
+                    continue
+                if d1 == np.inf:  # a peak above its isoline
+                    bw[i, j, 0] = min(dmax[k, 0], ramp)
+                    bw[i, j, 1] = cv - F[0, V, i, j]
+                else:  # a pit below it
+                    bw[i, j, 0] = min(dmax[k, 1], ramp)
+                    bw[i, j, 1] = F[1, V, i, j] - cv
+    return bw
+
+
+@njit(cache=True, nogil=True)
+def _across(bw, nband, want, x, y, sx, sy, d):
     """(width, step) of band `want` just beyond the source (sx, sy) seen from (x, y) at
-    distance d: read at the first node of that band PROBE, then 2 PROBE, past the isoline;
-    (0, 0) where unknown."""
+    distance d: read in bw at the first node of that band PROBE, then 2 PROBE, past the
+    isoline; (0, 0) where unknown."""
     if d <= 1e-6:
         return 0.0, 0.0
     ux = (sx - x) / d
@@ -311,24 +339,8 @@ def _across(F, nband, labels, dmax, capv, ramp, want, x, y, sx, sy, d):
         j = int(np.floor(sx + ux * PROBE * k))
         if i < 0 or i >= nr or j < 0 or j >= nc:
             return 0.0, 0.0
-        if nband[i, j] != want:
-            continue
-        d0 = F[0, D, i, j]
-        d1 = F[1, D, i, j]
-        if d0 != np.inf and d1 != np.inf:
-            return d0 + d1, F[1, V, i, j] - F[0, V, i, j]
-        if d0 == np.inf and d1 == np.inf:
-            return 0.0, 0.0
-        # a cap: its ramp from the level to the cap value
-        k = labels[i, j]
-        cv = capv[k]
-        if np.isnan(cv):
-            return 0.0, 0.0
-        if d1 == np.inf:  # a peak above the isoline
-            dm = min(dmax[k, 0], ramp)
-            return dm, cv - F[0, V, i, j]
-        dm = min(dmax[k, 1], ramp)  # a pit below it
-        return dm, F[1, V, i, j] - cv
+        if nband[i, j] == want:
+            return bw[i, j, 0], bw[i, j, 1]
     return 0.0, 0.0
 
 
@@ -344,15 +356,15 @@ def _pchip_slope(s_here, w_here, s_next, w_next):
 
 
 @njit(cache=True, nogil=True)
-def _hermite(F, nband, labels, dmax, capv, ramp, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1):
+def _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1):
     """G1 fill between the lower isoline (distance d0, value v0) and the upper one (d1, v1):
     the cubic Hermite profile whose slopes at the isolines blend this band's slope with the
     neighbouring bands' (read across each isoline), instead of the straight line whose slope
     jumps at every isoline."""
     w = d0 + d1
     sl = (v1 - v0) / w
-    wl, dl = _across(F, nband, labels, dmax, capv, ramp, b - 1, x, y, sx0, sy0, d0)
-    wh, dh = _across(F, nband, labels, dmax, capv, ramp, b + 1, x, y, sx1, sy1, d1)
+    wl, dl = _across(bw, nband, b - 1, x, y, sx0, sy0, d0)
+    wh, dh = _across(bw, nband, b + 1, x, y, sx1, sy1, d1)
     m0 = _pchip_slope(sl, w, dl / wl if wl > 0.0 else 0.0, wl)
     m1 = _pchip_slope(sl, w, dh / wh if wh > 0.0 else 0.0, wh)
     t = d0 / w
@@ -366,16 +378,16 @@ def _hermite(F, nband, labels, dmax, capv, ramp, b, x, y, sx0, sy0, d0, v0, sx1,
 
 
 @njit(cache=True, nogil=True)
-def _cap_hermite(F, nband, labels, dmax, capv, ramp, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm):
+def _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm):
     """A cap's ramp as a cubic from its isoline (value lvl, at distance d = 0) to the plateau
     (cv at d = dm, flat): the slope at the isoline blends the ramp's with that of the band
     across the isoline, as in _hermite."""
     s_cap = (cv - lvl) / dm
     if s_other == 0:  # a peak: the band below continues the rise inwards
-        wn, dn = _across(F, nband, labels, dmax, capv, ramp, b - 1, x, y, sx0, sy0, d)
+        wn, dn = _across(bw, nband, b - 1, x, y, sx0, sy0, d)
         sn = dn / wn if wn > 0.0 else 0.0
     else:  # a pit: the band above falls inwards
-        wn, dn = _across(F, nband, labels, dmax, capv, ramp, b + 1, x, y, sx1, sy1, d)
+        wn, dn = _across(bw, nband, b + 1, x, y, sx1, sy1, d)
         sn = -dn / wn if wn > 0.0 else 0.0
     m0 = _pchip_slope(s_cap, dm, sn, wn)
     t = d / dm
@@ -385,7 +397,7 @@ def _cap_hermite(F, nband, labels, dmax, capv, ramp, b, x, y, s_other, sx0, sy0,
 
 
 @njit(cache=True, nogil=True)
-def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth=True):
+def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth, bw):
     """Fill values at target samples.
 
     tband (n, m): band of each target sample; xs (m,), ys (n,): their positions in node units.
@@ -395,6 +407,8 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
     band and lie FAR from every source interpolates them bilinearly, the others are
     evaluated exactly.
     out (n, m) float32 receives the values.
+    smooth: G1 profiles (fill "diffusion") with bw = band_widths(...), else straight lines
+    (fill "linear"; bw unused).
     """
     use_nv = nv.shape[0] == nband.shape[0]
     nr, nc = nband.shape
@@ -510,7 +524,7 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 elif not smooth:
                     out[a, bcol] = lvl + (cv - lvl) * d / dm
                 else:
-                    out[a, bcol] = _cap_hermite(F, nband, labels, dmax, capv, ramp, b, x, y, s_other,
+                    out[a, bcol] = _cap_hermite(bw, nband, b, x, y, s_other,
                                                 sx0, sy0, sx1, sy1, d, lvl, cv, dm)
                 continue
             tot = best_d0 + best_d1
@@ -519,4 +533,4 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
             elif not smooth:
                 out[a, bcol] = (v0 * best_d1 + v1 * best_d0) / tot
             else:
-                out[a, bcol] = _hermite(F, nband, labels, dmax, capv, ramp, b, x, y, sx0, sy0, best_d0, v0, sx1, sy1, best_d1, v1)
+                out[a, bcol] = _hermite(bw, nband, b, x, y, sx0, sy0, best_d0, v0, sx1, sy1, best_d1, v1)

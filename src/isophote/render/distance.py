@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._kernels.diffuse import (
-    MODE_EUCLIDEAN, MODE_GEODESIC, MODE_MANHATTAN, evaluate, label_nodes, offsets, propagate, region_caps, seed,
+    MODE_EUCLIDEAN, MODE_GEODESIC, MODE_MANHATTAN, band_widths, evaluate, label_nodes, offsets, propagate,
+    region_caps, seed,
 )
 from ..model import CAP_RAMP
 from .._kernels.raster import rasterise
@@ -34,6 +35,7 @@ class NodeField:
     capv: np.ndarray  # (R,) cap value per region, NaN where none
     nv: np.ndarray  # (nr, nc) float32 fill value at each node
     smooth: bool  # G1 profiles across isolines (fill "diffusion") or straight lines ("linear")
+    bw: np.ndarray  # (nr, nc, 2) float32 band width and step per node (band_widths), for G1
 
 
 def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> NodeField:
@@ -53,8 +55,9 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> Nod
     # the fill at the nodes: samples surrounded by nodes of their own band interpolate it
     nr, nc = band.shape
     nv = np.empty((nr, nc), np.float32)
+    bw = band_widths(F, band, labels, dmax, capv, CAP_RAMP * r) if smooth else np.zeros((0, 0, 2), np.float32)
     evaluate(
         F, band, labels, dmax, capv, CAP_RAMP * r, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
-        ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth,
+        ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw,
     )
-    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth)
+    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw)

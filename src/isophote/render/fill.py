@@ -34,7 +34,7 @@ def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool, tone=None) -> np.nd
     xs = (vp.col0 + np.arange(m) + 0.5 + vp.offx) / vp.kx * nf.r
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
-    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out, nf.smooth)
+    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out, nf.smooth, nf.bw)
     if tone is not None:
         out = np.interp(out, tone[:, 0], tone[:, 1]).astype(np.float32)
     if s > 1:
