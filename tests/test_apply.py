@@ -10,6 +10,7 @@ import pytest
 import isophote
 from isophote import cli
 from isophote.apply import equalise as E
+from isophote.errors import OptionError
 from isophote.apply import warp as W
 from isophote.imageio import write_image
 from isophote.model import Channel, VectorImage
@@ -99,6 +100,13 @@ def test_pixel_equalisation_matches_opencv():
     assert np.array_equal(E.equalise_pixels(y), cv2.equalizeHist(y))
 
 
+def _band_bounds(ch):
+    """(K,) lower and upper bound of each cap's band: its two levels, or the scale's ends."""
+    ext = np.concatenate([[0.0], ch.levels, [255.0]])
+    b = ch.cap_band.astype(np.int64)
+    return ext[b], ext[b + 1]
+
+
 def test_equalise_moves_levels_not_contours(vi):
     info = {}
     eq = E.equalise(vi, info=info)
@@ -106,11 +114,95 @@ def test_equalise_moves_levels_not_contours(vi):
     assert np.array_equal(y0.points, y1.points) and np.array_equal(y0.contour_level, y1.contour_level)
     assert np.all(np.diff(y1.levels) > 0) and y1.levels[0] > 0 and y1.levels[-1] < 255
     assert eq.channel("U").equals(vi.channel("U")) and eq.channel("V").equals(vi.channel("V"))
-    # caps stay inside their bands
-    lo, hi = E._cap_bounds(y1, y1.levels)
-    q = 1 / 64  # cap values live on the file format's 1/64 grid
-    assert np.all(y1.cap_value >= np.minimum(lo, hi) - q) and np.all(y1.cap_value <= np.maximum(lo, hi) + q)
-    assert set(info) >= {"area_above", "old_levels", "new_levels", "model_error", "measured"}
+    # caps stay inside their bands (on the file format's 1/64 grid)
+    lo0, hi0 = _band_bounds(y0)
+    inside = (y0.cap_value >= lo0) & (y0.cap_value <= hi0)
+    lo, hi = _band_bounds(y1)
+    q = 1 / 64
+    assert np.all(y1.cap_value[inside] >= lo[inside] - q) and np.all(y1.cap_value[inside] <= hi[inside] + q)
+    assert set(info) >= {"area_above", "old_levels", "new_levels", "tone_knots", "measured"}
+    assert info["tone_knots"] == y1.tone.shape[0] and eq.meta["equalised"] == "levels+tone"
+    fast = E.equalise(vi, refine_render=False)
+    assert fast.channel("Y").tone is None and np.array_equal(fast.channel("Y").levels, y1.levels)
+
+
+def test_tone_curve_keeps_the_levels_fixed(vi):
+    y = E.equalise(vi).channel("Y")
+    t = y.tone
+    assert t.ndim == 2 and t.shape[1] == 2 and t.shape[0] >= 2
+    assert np.all(np.diff(t[:, 0]) > 0) and np.all(np.diff(t[:, 1]) >= 0)
+    assert t.min() >= 0 and t.max() <= 255 and t[0, 0] == 0 and t[-1, 0] == 255
+    for level in y.levels:  # a knot (l, l) at every level: contours keep their values
+        k = np.flatnonzero(t[:, 0] == level)
+        assert k.size == 1 and t[k[0], 1] == level
+    assert np.array_equal(y.apply_tone(y.levels), y.levels)
+    # equalising again gives the same levels and the same curve (the old curve is dropped)
+    again = E.equalise(E.equalise(vi)).channel("Y")
+    assert np.array_equal(again.levels, y.levels) and np.array_equal(again.tone, t)
+
+
+def test_tone_curve_of_known_distributions():
+    rng = np.random.default_rng(5)
+    levels = np.array([60.0, 180.0])
+    # band 1 ([60, 180)) holds values crowded towards its lower level: u**3
+    u = rng.uniform(0, 1, 200_000)
+    values = np.concatenate([rng.uniform(0, 60, 100_000), 60 + 120 * u**3, rng.uniform(180, 255, 100_000)])
+    t = E.tone_curve(values, levels)
+    assert np.array_equal(np.interp(levels, t[:, 0], t[:, 1]), levels)
+    out = np.interp(values[100_000:300_000], t[:, 0], t[:, 1])
+    # inside the band the curve is the band's cumulative distribution: uniform on [60, 180]
+    cdf = np.searchsorted(np.sort(out), np.linspace(60, 180, 241)) / out.size
+    assert np.abs(cdf - np.linspace(0, 1, 241)).max() < 0.003
+    # the band below the first level spreads onto [-0.5, 60], clipped at 0
+    low = np.interp(values[:100_000], t[:, 0], t[:, 1])
+    assert low.min() == 0.0 and abs(np.median(low) - 29.75) < 0.5
+    for bad in ([180.0, 60.0], [0.0, 60.0], [60.0, 255.0]):
+        with pytest.raises(OptionError):
+            E.tone_curve(values, np.array(bad))
+
+
+def test_atoms_sit_at_their_mid_rank_and_leave_no_empty_bins():
+    rng = np.random.default_rng(6)
+    n = 400_000
+    # a uniform image with an atom of 4 % at 200 and one of 3 % at the very bottom; the
+    # level 127.5 has (nearly) its share below it, as after reassignment
+    values = np.concatenate([rng.uniform(0, 255, int(n * 0.93)), np.full(int(n * 0.04), 200.0),
+                             np.zeros(int(n * 0.03))])
+    t = E.tone_curve(values, np.array([127.5]))
+    out = np.interp(values, t[:, 0], t[:, 1])
+    s = E.histogram_stats(out)
+    assert s["empty"] == 0
+    assert s["ks"] < 0.03 + 0.002  # the bottom atom (3 %) cannot leave 0; the other costs 2 %
+    assert np.interp(0.0, t[:, 0], t[:, 1]) == 0.0
+    # the inner atom sits in the middle of its share of its band ([127.5, 255.5] on output)
+    band = values[values >= 127.5]
+    mid = ((band < 200).mean() + 0.5 * (band == 200).mean())
+    assert abs(np.interp(200.0, t[:, 0], t[:, 1]) - (127.5 + 128 * mid)) < 0.5
+
+
+def _smooth_scene(h=96, w=128):
+    """A ramp, a bright blob, a dark blob and a ripple: no plateau anywhere."""
+    y, x = np.mgrid[0:h, 0:w] + 0.5
+    img = (40 + 0.9 * x + 0.5 * y + 60 * np.exp(-((x - 0.3 * w) ** 2 + (y - 0.4 * h) ** 2) / (0.04 * w * w))
+           - 30 * np.exp(-((x - 0.7 * w) ** 2 + (y - 0.6 * h) ** 2) / (0.02 * w * w))
+           + 8 * np.sin(x / 5) * np.cos(y / 7))
+    return np.clip(img, 0, 255)
+
+
+def test_equalised_render_is_rectangular():
+    vi = isophote.encode(_smooth_scene())
+    w, h = vi.width, vi.height
+    before = E.histogram_stats(E._render_channel(vi.channel("Y"), w, h))
+    assert before["empty"] > 50 and before["ks"] > 0.1
+    info = {}
+    y = E.equalise(vi, info=info).channel("Y")
+    for scale in (1, 2, 3):
+        s = E.histogram_stats(E._render_channel(y, w, h, scale))
+        assert s["empty"] == 0 and s["ks"] <= 0.005 and s["entropy"] >= 7.97, (scale, s)
+    assert info["measured"] == E.histogram_stats(E._render_channel(y, w, h))
+    # the exact areas alone get part of the way; the tone curve does the rest
+    fast = E.histogram_stats(E._render_channel(E.equalise(vi, refine_render=False).channel("Y"), w, h))
+    assert fast["ks"] > 2 * info["measured"]["ks"]
 
 
 def test_equalised_histogram_is_flatter_than_the_pixel_way(grey_vi):

@@ -52,3 +52,19 @@ def test_malformed_svg_input_is_a_clean_error(tmp_path, capsys):
     assert main(["encode", str(bad), "-o", str(out)]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_equalised_file_keeps_its_tone_curve_through_svg(isoph, tmp_path):
+    import isophote
+
+    eq = tmp_path / "eq.isoph"
+    assert main(["equalize", str(isoph), "-o", str(eq), "-q"]) == 0
+    tone = isophote.load(eq).channel("Y").tone
+    assert tone is not None and tone.shape[0] >= 2
+    svg = tmp_path / "eq.svg"
+    assert main(["svg", str(eq), "-o", str(svg), "-q"]) == 0
+    assert "iso:tone=" in svg.read_text()
+    back = tmp_path / "back.isoph"
+    assert main(["encode", str(svg), "-o", str(back), "-q"]) == 0
+    assert back.read_bytes() == eq.read_bytes()
+    assert np.array_equal(isophote.load(back).channel("Y").tone, tone)

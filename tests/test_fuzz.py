@@ -47,6 +47,7 @@ from isophote import cli
 from isophote.errors import FormatError, InputError, LimitError
 from isophote.format import isoph
 from isophote.imageio import read_image, write_image
+from isophote.encoder import QUANT
 from isophote.model import Channel, VectorImage
 
 EXAMPLES = int(os.environ.get("ISOPHOTE_FUZZ_EXAMPLES") or 0)
@@ -151,7 +152,24 @@ def channels(draw, name, extreme=True):
         cap_value=np.asarray(draw(st.lists(st.integers(-COORD, COORD) if extreme else st.integers(-64 * 20, 64 * 280),
                                            min_size=k, max_size=k)), np.float64).reshape(-1) / Q,
         base_band=draw(st.integers(0, n_levels)),
+        tone=draw(tones(extreme)),
     )
+
+
+@st.composite
+def tones(draw, extreme=True):
+    """None, or a valid tone curve: 2 .. 6 knots (or MAX_TONE_KNOTS), x strictly increasing,
+    y non-decreasing."""
+    if draw(st.integers(0, 2)):
+        return None
+    n = isoph.MAX_TONE_KNOTS if extreme and draw(st.integers(0, 19)) == 0 else draw(st.integers(2, 6))
+    finite = st.floats(-1e300, 1e300, allow_nan=False) if extreme else st.floats(-20, 280, allow_nan=False)
+    x = np.unique(np.asarray(draw(st.lists(finite, min_size=min(n, 6), max_size=min(n, 6))), np.float64))
+    if x.shape[0] < 2 or n > 6:
+        x = np.arange(n, dtype=np.float64) * 0.0625
+    y = np.sort(np.asarray(draw(st.lists(finite, min_size=x.shape[0], max_size=x.shape[0])), np.float64)) \
+        if x.shape[0] <= 6 else np.arange(x.shape[0]) // 7 * 1.0
+    return np.c_[x, y]
 
 
 json_values = st.recursive(
@@ -247,7 +265,7 @@ def check_isoph(data: bytes, label: str, render=True, seed=0) -> str:
 
 
 @budget(60)
-@given(vector_images(), st.sampled_from(["zlib", "lzma", "none"]))
+@given(vector_images(), st.sampled_from(["range", "range", "zlib", "lzma", "none"]))
 def test_random_valid_images_round_trip_exactly(vi, compression):
     b = isoph.dumps(vi, compression=compression)
     out = isoph.loads(b)
@@ -284,9 +302,10 @@ def checksummed_headers(draw):
     if draw(st.booleans()):  # plausible fixed fields, so that the channel summaries are reached
         struct.pack_into("<IIBBBBHH", body, 0, draw(st.integers(1, 64)), draw(st.integers(1, 64)),
                          draw(st.integers(0, 1)), draw(st.sampled_from([8, 16])), draw(st.integers(1, 4)),
-                         draw(st.integers(0, 2)), 64, 64)
+                         draw(st.integers(0, 3)), 64, 64)
         struct.pack_into("<I", body, 36, draw(st.integers(0, 8)))  # meta_size
-    head = isoph.MAGIC + struct.pack("<HHI", 1, 0, 16 + len(body) + 4) + bytes(body)
+    version = draw(st.sampled_from([1, 2]))
+    head = isoph.MAGIC + struct.pack("<HHI", version, 0, 16 + len(body) + 4) + bytes(body)
     head += struct.pack("<I", zlib.crc32(head))
     return head + draw(st.binary(max_size=200))
 
@@ -312,11 +331,12 @@ def lying_files(draw):
         names = draw(st.lists(st.characters(max_codepoint=255), min_size=1, max_size=4))
     colour_code = draw(st.one_of(st.just({"grey": 0, "yuv": 1}[colour]), st.integers(0, 255)))
     n_channels = draw(st.one_of(st.just(len(names)), st.integers(0, 255)))
-    compression = draw(st.one_of(st.integers(0, 2), st.integers(0, 255)))
+    compression = draw(st.one_of(st.integers(0, 3), st.integers(0, 255)))
     meta = draw(st.one_of(st.just(b""), st.just(b'{"a":NaN}'), st.just(b'{"a":1e400}'),
                           st.dictionaries(st.text(max_size=4), json_values, max_size=2).map(
                               lambda d: json.dumps(d).encode()), st.binary(max_size=20)))
-    summaries, counts = b"", []
+    version = draw(st.sampled_from([1, 2, 2]))
+    chans, counts = [], []
     for name in names:
         n_levels = draw(st.one_of(st.integers(0, 5), st.sampled_from([1024, 1025, 65535])))
         lv = draw(st.lists(st.floats(width=64), min_size=min(n_levels, 5), max_size=min(n_levels, 5)))
@@ -325,17 +345,41 @@ def lying_files(draw):
         lv = (lv + [float(v) for v in range(n_levels - len(lv))])[:n_levels] if n_levels <= 1024 else lv
         c, s, k = draw(small), draw(small), draw(small)
         base_band = draw(st.integers(0, min(n_levels + 1, 65535)))
-        summaries += struct.pack("<cHHIII", name.encode("latin-1"), n_levels, base_band, c, s, k)
-        summaries += struct.pack(f"<{len(lv)}d", *lv)
+        # version 2: a tone curve, grids (mostly plausible), a coded size
+        n_tone = draw(st.one_of(st.just(0), st.integers(1, 5), st.sampled_from([4096, 4097, 65535])))
+        tone = draw(st.lists(st.floats(width=64), min_size=2 * min(n_tone, 5), max_size=2 * min(n_tone, 5)))
+        if draw(st.booleans()):
+            tone = [float(v) for v in range(2 * n_tone)] if n_tone <= 4096 else tone
+        shifts = draw(st.one_of(st.just((0, 0, 0, 0)), st.tuples(st.integers(0, 7), st.integers(0, 17),
+                                                                  st.integers(0, 7), st.integers(0, 7))))
+        chans.append((name, n_levels, lv, base_band, c, s, k, n_tone, tone, shifts))
         counts.append((c, s, k))
     raw_size = sum(10 * c + 24 * s + 18 * k + (s + 7) // 8 for c, s, k in counts)
-    if raw_size <= 4096 and draw(st.booleans()):
+    if raw_size <= 4096 and draw(st.booleans()) and compression != 3:
         raw = draw(st.binary(min_size=raw_size, max_size=raw_size))
         payload = {0: raw, 1: zlib.compress(raw), 2: lzma.compress(
             raw, format=lzma.FORMAT_RAW, filters=[{"id": lzma.FILTER_LZMA2, "dict_size": 1 << 23}])}.get(
             compression, raw)
     else:
         payload = draw(st.binary(max_size=300))
+    # coded sizes: usually a split of the payload among the channels
+    cuts = sorted(draw(st.lists(st.integers(0, len(payload)), min_size=len(chans) - 1, max_size=len(chans) - 1))
+                  ) if chans else []
+    coded = [b - a for a, b in zip([0] + cuts, cuts + [len(payload)])]
+    if draw(st.integers(0, 4)) == 0:
+        coded = [draw(u32) for _ in chans]
+    summaries = b""
+    for (name, n_levels, lv, base_band, c, s, k, n_tone, tone, shifts), size in zip(chans, coded):
+        if version == 1:
+            summaries += struct.pack("<cHHIII", name.encode("latin-1"), n_levels, base_band, c, s, k)
+        else:
+            if compression != 3 and draw(st.integers(0, 3)):
+                shifts, size = (0, 0, 0, 0), 0
+            summaries += struct.pack("<cHHIIIHBBBBQ", name.encode("latin-1"), n_levels, base_band, c, s, k,
+                                     n_tone, *shifts, size)
+        summaries += struct.pack(f"<{len(lv)}d", *lv)
+        if version == 2:
+            summaries += struct.pack(f"<{len(tone)}d", *tone)
     fixed = struct.pack(
         "<IIBBBBHHQQII", draw(st.one_of(st.integers(1, 64), u32)), draw(st.one_of(st.integers(1, 64), u32)),
         colour_code, draw(st.sampled_from([8, 16, 0, 255])), n_channels, compression,
@@ -344,7 +388,7 @@ def lying_files(draw):
         draw(st.one_of(st.just(raw_size), st.integers(0, 2**64 - 1))),
         zlib.crc32(payload), len(meta))
     body = fixed + meta + summaries
-    head = isoph.MAGIC + struct.pack("<HHI", 1, 0, 16 + len(body) + 4) + body
+    head = isoph.MAGIC + struct.pack("<HHI", version, 0, 16 + len(body) + 4) + body
     return head + struct.pack("<I", zlib.crc32(head)) + payload
 
 
@@ -399,13 +443,16 @@ def _smooth(h, w, c):
 @pytest.fixture(scope="module")
 def seeds():
     """Real files: the encoder's output for small images of every layout, in every
-    compression, and random valid images."""
+    compression (range coding last)."""
     out = []
     for h, w, c in [(16, 24, 3), (12, 12, 1), (10, 9, 4), (9, 10, 2)]:
         vi = isophote.encode(_smooth(h, w, c))
         for compression in ("zlib", "lzma", "none"):
             out.append(isoph.dumps(vi, compression=compression))
     noise = np.random.default_rng(5).integers(0, 256, (6, 7, 3)).astype(np.uint8)
+    out.append(isoph.dumps(isophote.encode(noise), compression="zlib"))
+    for h, w, c in [(16, 24, 3), (12, 12, 1), (10, 9, 4), (9, 10, 2)]:  # the default: range coding
+        out.append(isoph.dumps(isophote.encode(_smooth(h, w, c))))
     out.append(isoph.dumps(isophote.encode(noise)))
     return out
 
@@ -464,6 +511,15 @@ def _raw_mutation(data: bytes, rng) -> bytes | None:
         return None  # not laid out like an .isoph file: nothing to decompress
     hs, head, payload = _split(data)
     code = head[27]
+    if code == 3:  # range coding: change coded bytes in place, fix the payload CRC
+        coded = bytearray(payload)
+        if not coded:
+            return None
+        for _ in range(int(rng.integers(1, 4))):
+            coded[int(rng.integers(0, len(coded)))] = int(rng.integers(0, 256))
+        head = bytearray(head)
+        struct.pack_into("<I", head, 48, zlib.crc32(bytes(coded)))
+        return _refresh(bytes(head) + bytes(coded), payload_too=False)
     try:
         if code == 0:
             raw = payload
@@ -643,8 +699,8 @@ def test_any_image_encodes_deterministically(case):
     if kind == "constant":
         scale = {np.dtype(np.uint16): 1 / 257, np.dtype(bool): 255.0}.get(a.dtype, 1.0)
         want = np.asarray(a, np.float64) * scale
-        # 8-bit rounding, after the format's 1/64-grey-level grid for cap values (16-bit input)
-        assert np.abs(out.astype(np.float64).reshape(want.shape) - want).max() <= 0.5 + 0.5 / 64 + 1e-9
+        # 8-bit rounding, after the encoder's 1/QUANT-grey-level grid for cap values (16-bit input)
+        assert np.abs(out.astype(np.float64).reshape(want.shape) - want).max() <= 0.5 + 0.5 / QUANT + 1e-9
     COUNTS[f"images: {kind}"] += 1
 
 

@@ -136,6 +136,58 @@ def test_round_trip_is_exact(small):
     assert isoph_loads(isoph_dumps(back)).equals(small)
 
 
+def _with_tone(vi, name, knots):
+    from dataclasses import replace
+
+    return replace(vi, channels=tuple(replace(ch, tone=np.asarray(knots, np.float64)) if ch.name == name else ch
+                                      for ch in vi.channels))
+
+
+def test_tone_curve_round_trips(small):
+    # knots off any grid, a flat stretch, the ends of the scale: every number exact
+    vi = _with_tone(small, "Y", [[0, 0], [17.5, 3.25], [100.1, 100.1], [200.0, 254.9], [254.75, 255], [255, 255]])
+    vi = _with_tone(vi, "U", [[0.0, 1 / 3], [255.0, 254.0]])
+    text = svg.to_svg(vi)
+    assert text.count("iso:tone=") == 2
+    back = svg.from_svg(text)
+    assert back.equals(vi)
+    assert back.channel("V").tone is None
+    assert back.channel("Y").tone.dtype == np.float64
+    assert np.array_equal(back.channel("U").tone, vi.channel("U").tone)
+    assert np.array_equal(render_float(back), render_float(vi))  # the curve is applied
+    assert not np.array_equal(render_float(back), render_float(small))
+    # no tone curve: no attribute, and None comes back
+    text = svg.to_svg(small)
+    assert "iso:tone" not in text
+    assert all(ch.tone is None for ch in svg.from_svg(text).channels)
+
+
+@pytest.mark.parametrize("tone", [
+    "0 0 255", "0 0", "x 0 255 255", "0 0 nan 255", "5 0 4 255", "0 9 255 8", "0 0 300 255",
+    "-1 0 255 255", "0 0 255 1e999",
+])
+def test_malformed_tone_curves_are_refused(small, tone):
+    text = svg.to_svg(_with_tone(small, "Y", [[0, 0], [255, 255]]))
+    assert 'iso:tone="0 0 255 255"' in text
+    _bad(text.replace('iso:tone="0 0 255 255"', f'iso:tone="{tone}"'))
+
+
+@pytest.mark.parametrize("knots", [
+    [[0, 0]], [[5, 0], [4, 255]], [[0, 9], [255, 8]], [[0, 0], [300, 255]], [[0, 0], [np.nan, 1]],
+    [0, 255],
+])
+def test_writer_refuses_a_bad_tone_curve(small, knots):
+    with pytest.raises(ValueError):
+        svg.to_svg(_with_tone(small, "Y", knots))
+
+
+def test_too_many_tone_knots_are_refused(monkeypatch, small):
+    text = svg.to_svg(_with_tone(small, "Y", [[0, 0], [100, 50], [255, 255]]))
+    monkeypatch.setattr(svg, "MAX_TONE_KNOTS", 2)
+    with pytest.raises(LimitError):
+        svg.from_svg(text)
+
+
 def test_corpus_crop_round_trip_and_identical_render(crop):
     back = svg.from_svg(svg.to_svg(crop))
     assert back.equals(crop)

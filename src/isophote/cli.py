@@ -299,13 +299,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help="histogram-equalise an .isoph by level reassignment (§5)",
                        description="Equalise the luminance histogram of an .isoph file by giving its Y levels "
                        "new values (the exact area above each level, from the Bezier chains, through the "
-                       "inverse of a rectangular histogram), then refit the levels and cap values on three "
-                       "renders of Y. Contours are unchanged; U and V are kept. Prints the rendered 8-bit Y "
-                       "histogram's empty bins, KS distance to the uniform and entropy.")
+                       "inverse of a rectangular histogram), then give Y a tone curve, measured on a 2x "
+                       "render, that spreads the values inside every band evenly between its two levels. "
+                       "Contours are unchanged; U and V are kept. Prints the rendered 8-bit Y histogram's "
+                       "empty bins, KS distance to the uniform and entropy.")
     p.add_argument("input", metavar="IN.isoph", help="input .isoph file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.isoph", help="output .isoph file")
     p.add_argument("--fast", action="store_true",
-                   help="exact areas only: no rendering (a less rectangular histogram, instant)")
+                   help="exact areas only: no rendering and no tone curve (a less rectangular histogram, "
+                   "instant)")
     p.add_argument("--json", action="store_true", help="print the histogram measures as a JSON object")
     p.set_defaults(func=cmd_equalize)
 
@@ -784,7 +786,8 @@ def cmd_equalize(args) -> int:
     progress = _Progress(args.quiet)
     t0 = time.perf_counter()
     vi = _load(args.input)
-    progress("equalising (exact level areas)..." if args.fast else "equalising (areas, then 4 renders of Y)...")
+    progress("equalising (exact level areas)..." if args.fast
+             else "equalising (exact level areas, then a tone curve from a 2x render)...")
     info = {}
     out = equalise(vi, refine_render=not args.fast, info=info)
     save(out, args.output)
@@ -793,7 +796,7 @@ def cmd_equalize(args) -> int:
     if args.json:
         print(json.dumps({"levels": info["new_levels"], "measured": stats}, allow_nan=False))
         return 0
-    how = "exact areas" if args.fast else "exact areas + refit on renders"
+    how = "exact areas" if args.fast else f"exact areas + a tone curve of {info['tone_knots']} knots"
     _say(args, f"{args.output}: Y levels reassigned ({how}); {time.perf_counter() - t0:.1f} s")
     if stats is not None:
         _say(args, f"rendered 8-bit Y: {stats['empty']} empty bins of 256, KS {stats['ks']:.4f} "

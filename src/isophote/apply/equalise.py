@@ -9,7 +9,8 @@ image continuously, and the rendered histogram can be made rectangular.
     equalise(vi)  ->  level_areas: the exact area above every level (Green's theorem)
                   ->  new level l_k = H^-1(fraction of the area below l_k)      (§5)
                   ->  cap values through the same map
-                  ->  refine (optional): measure the render, reassign levels and caps
+                  ->  tone curve (optional): inside every band, the rendered values'
+                      distribution mapped onto a uniform spread between the band's levels
 
 Areas (exact)
     The area where the channel is >= l_k is the frame (when the root band is above l_k)
@@ -22,33 +23,66 @@ The inverse map (the paper's H^-1)
     Rendered 8-bit values are round(v); a rectangular histogram of 256 bins is v uniform on
     [-0.5, 255.5]. So the level below which a fraction p of the image lies goes to
     256 p - 0.5. Levels are kept strictly increasing (gaps of at least LEVEL_GAP) and
-    inside (0, 255), as the data model requires.
+    inside (0, 255), as the data model requires. This is the primary mechanism (the
+    paper's): it fixes how much of the image every band holds, exactly and without
+    rendering.
 
 Caps and the ends
     Peaks and pits (model.py, Caps) are not between two levels: their profile runs from their
     level to their cap value. Cap values go through the same piecewise-linear map as the
     levels, anchored at the ends by the darkest and brightest value of the image going to
-    -0.5 and 255.5 (then clipped to [0, 255]): the bands below the first and above the last
-    level stretch to the ends of the scale.
+    0 and 255 (the ends of the value scale, so that distinct dark or bright caps stay
+    distinct for the tone curve): the bands below the first and above the last level
+    stretch to the ends of the scale.
 
-Refinement (``refine=True``, the default)
-    Level reassignment alone makes every band hold the right share of the image, but inside
-    a band the renderer's values are not uniform (more pixels sit near the levels: the ramps
-    of the many small caps), which costs ~0.05 bit of entropy and KS ~0.01 on photographs.
-    The render is linear in the levels and cap values (double diffusion interpolates the two
-    levels of a band with weights set by distances alone; a cap's profile is
-    L + (cap - L) f with f set by distances alone), so three renders of the channel measure
-    every pixel's weights (``_pixel_model``), and the levels and the cap values are then
-    fitted, by alternating least squares, to the values of exact histogram specification
-    (every pixel sent to the uniform quantile of its rank). Caps stay inside their band and
-    levels stay increasing, so the equalised image keeps every contour and every ordering
-    between bands; what moves is where inside its band a cap's plateau sits. The result is
-    checked against a real render (``info["measured"]``).
+Tone curve (``refine_render=True``, the default)
+    Level reassignment gives every band its share of the image, but inside a band the
+    double-diffusion fill is not uniform (more samples sit near the levels, the ramps of the
+    many small caps crowd towards their plateaus), which leaves KS 0.01-0.05 and 0.1-0.5
+    bit of entropy on the corpus. Channel.tone (model.py) is a monotone curve that the
+    renderer applies to every sample, so the within-band distribution can be made uniform
+    without touching a contour: the channel with its new levels is rendered, and in every
+    band the cumulative distribution of the values found there becomes the tone curve,
+    mapped onto [l_{k-1}, l_k] (``tone_curve``). The knots at the levels themselves map every level to
+    itself, so contours keep their values and the band shares set by the exact areas stay
+    as they are; the curve only moves values inside a band.
+
+    The distribution is measured on the point samples of one render at 2x
+    (``MEASURE_SCALE``), not at 1x: enlargements evaluate the fill on a finer distance grid
+    (three nodes per source pixel, render/__init__.py ``node_resolution``) that every render
+    above 1x shares, while the 1x samples sit exactly on the source pixel centres, where
+    every small cap reaches its extremum, and hold atoms that no other raster has. Measured
+    on the corpus (benchmarks/apply.py): rendered at 2x and 3x the histogram is flat to KS
+    ~0.001 where no plateau limits it, at 1x to ~0.005; a curve fitted to the 1x render is
+    at most 0.003 better at 1x and up to 0.02 worse at every other size. The 1x residual is
+    the level knots': 1x samples each band at the source pixels, whose shares differ from
+    the exact areas by up to 0.005 (coffee, rocket), and a level's share
+    is what its fixed knot keeps. Large images are measured at a reduced scale (about
+    4 * MEASURE_PIXELS samples).
+
+    Atoms: a cap's plateau is flat (model.py, CAP_RAMP), so a large cap (a clear sky, a
+    black background) is a single value that holds a sizeable share of the image (an atom:
+    ATOM, one bin's share, or more), and no monotone curve can spread it: an atom of mass m
+    costs KS >= m / 2 wherever it goes (the curve keeps the order of all values; moving cap
+    values independently could reorder plateaus, but would invert contrasts). It
+    is put at its mid-rank (the middle of its share of the band), and the values on either
+    side of it are stretched over a window as wide as the atom, so that its neighbours fill
+    the bins around it rather than leaving them empty; when the window would have to be
+    stretched more than STRETCH_MAX times (an atom with little beside it), the atom moves
+    towards the thin side. An atom with nothing below it in the image stays at 0 (nothing
+    above: 255): lifting it to its mid-rank would empty every bin below it.
+
+    The dense curve (a knot every KNOT_STEP grey levels of output) is simplified (Ramer-
+    Douglas-Peucker) within KNOT_TOLERANCE grey levels: 120-170 knots on the corpus.
 
 Chroma
     U and V are left as they are: only luminance is equalised (as OpenCV's recipe of
-    equalising Y of YCrCb). A hue and its saturation stay the same; colours that the new
-    luminance puts outside the RGB cube are clipped by the renderer.
+    equalising Y of YCrCb), so a hue and its chroma stay the same. Colours that the new
+    luminance puts outside the RGB cube are clipped by the renderer, as they are by the
+    pixel recipe: on coffee and chelsea about 20 % of the pixels leave the cube by more than
+    2 grey levels either way (OpenCV's recipe: the same share). A global chroma gain would
+    be the only other choice the channels allow (they are independent, so chroma cannot
+    follow each pixel's change of luminance), and it buys little: 0.8 still leaves 17 %.
 
 References
     The paper §5; fontTools ``Lib/fontTools/pens/areaPen.py`` (the cubic area term).
@@ -156,26 +190,9 @@ def monotone_levels(levels: np.ndarray) -> np.ndarray:
     return v
 
 
-def _cap_levels(channel: Channel) -> np.ndarray:
-    """(K,) int64: index of the level that bounds each cap region (its profile starts there),
-    -1 for a region with no contour at all (flat at its cap value)."""
-    k = channel.cap_band.shape[0]
-    out = np.full(k, -1, np.int64)
-    if channel.n_contours == 0 or k == 0:
-        return out
-    cc = channel.cap_contour.astype(np.int64)
-    has = cc >= 0
-    out[has] = channel.contour_level[cc[has]]
-    roots = np.flatnonzero(channel.parent == -1)
-    if roots.size and (~has).any():
-        # the root region is bounded by the frame's children, all of one level for a cap
-        out[~has] = channel.contour_level[roots[0]]
-    return out
-
-
 def _value_map(channel: Channel, new_levels: np.ndarray):
     """The piecewise-linear map old value -> new value through the levels, anchored at the
-    ends of the channel's value range."""
+    ends of the channel's value range going to 0 and 255."""
     old = channel.levels
     # the darkest / brightest cap values are the ends of the image's range
     below = channel.cap_value[channel.cap_value < old[0]]
@@ -183,7 +200,7 @@ def _value_map(channel: Channel, new_levels: np.ndarray):
     lo = float(below.min()) if below.size else float(old[0]) - 1e-6
     hi = float(above.max()) if above.size else float(old[-1]) + 1e-6
     xs = np.concatenate([[lo], old, [hi]])
-    ys = np.concatenate([[-0.5], new_levels, [255.5]])
+    ys = np.concatenate([[0.0], new_levels, [255.0]])
     return lambda v: np.interp(v, xs, ys)
 
 
@@ -204,175 +221,171 @@ def reassign_levels(channel: Channel, width: int, height: int) -> Channel:
 
 
 # =============================================================================================
-# Refinement: exact histogram specification on the levels and caps
+# Tone curve: the within-band distribution made uniform
 # =============================================================================================
 
 
-def _render_channel(channel: Channel, width: int, height: int) -> np.ndarray:
+MEASURE_SCALE = 2.0  # the render measured (see the module docstring)
+MEASURE_PIXELS = 1_000_000  # larger images are measured as if they had this many pixels
+ATOM = 1.0 / 256.0  # a single value holding this share of the image (a bin) is an atom
+STRETCH_MAX = 32.0  # the most the values beside an atom are spread thinner than uniform
+KNOT_STEP = 0.5  # grey levels of output between the knots of the dense curve
+KNOT_TOLERANCE = 0.05  # grey levels: how far the simplified curve may stray from the dense one
+
+
+def _render_channel(channel: Channel, width: int, height: int, scale: float = 1.0) -> np.ndarray:
+    """(H, W) float64: one channel rendered alone (point samples, tone applied if any)."""
     from ..render import render_float
 
-    return render_float(VectorImage(width, height, "grey", (channel,)))[..., 0]
+    return render_float(VectorImage(width, height, "grey", (channel,)), scale=scale)[..., 0]
 
 
-PROBE_SHIFT = 50.0  # grey levels a probe moves a cap (towards mid-scale, so nothing clips)
-PROBE_CODE_SPAN = 1.5  # probe 2 multiplies the shift by 1 .. 1 + span, one factor per cap
-F_MIN = 1e-3  # pixels whose cap weight is below this are treated as lying on the level
-LEVEL_RIDGE = 1.0  # pixels: weight of a level's current value in the least-squares refit
+def measure_values(channel: Channel, width: int, height: int) -> np.ndarray:
+    """(N,) float64: the channel's rendered values as the tone curve sees them (no tone
+    applied): the point samples of its render at MEASURE_SCALE (smaller for images of more
+    than MEASURE_PIXELS pixels)."""
+    reduce = min(1.0, float(np.sqrt(MEASURE_PIXELS / (float(width) * float(height)))))
+    return _render_channel(replace(channel, tone=None), width, height, MEASURE_SCALE * reduce).ravel()
 
 
-class _PixelModel:
-    """Every pixel's rendered value as a function of the levels and cap values:
-    v = wl * levels[il] + wr * levels[ir] + wc * caps[ic] + const (unused terms have weight 0,
-    index 0)."""
+def _simplify(x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
+    """Indices of the knots kept by Ramer-Douglas-Peucker with a vertical tolerance (the
+    piecewise-linear curve through the kept knots is within ``tol`` of every dropped one).
+    The first and last knots are always kept."""
+    keep = np.zeros(x.shape[0], bool)
+    keep[[0, -1]] = True
+    stack = [(0, x.shape[0] - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        t = (x[a + 1 : b] - x[a]) / (x[b] - x[a])
+        err = np.abs(y[a + 1 : b] - (y[a] + t * (y[b] - y[a])))
+        i = int(np.argmax(err))
+        if err[i] > tol:
+            m = a + 1 + i
+            keep[m] = True
+            stack += [(a, m), (m, b)]
+    return np.flatnonzero(keep)
 
-    def __init__(self, n, L, K):
-        self.il = np.zeros(n, np.int64)
-        self.ir = np.zeros(n, np.int64)
-        self.ic = np.zeros(n, np.int64)
-        self.wl = np.zeros(n)
-        self.wr = np.zeros(n)
-        self.wc = np.zeros(n)
-        self.const = np.zeros(n)
-        self.L, self.K = L, K
 
-    def predict(self, levels, caps):
-        caps = caps if caps.size else np.zeros(1)
-        return self.wl * levels[self.il] + self.wr * levels[self.ir] + self.wc * caps[self.ic] + self.const
+def _band_curve(v, lo_w, hi_w, share, xa, xb, ya, yb):
+    """Knots (x, y) of the tone curve over one band: input [xa, xb] onto output [ya, yb].
+
+    v : (n,) sorted distinct values found in the band, lo_w / hi_w : (n,) the share of the
+    band's samples below each value and up to it (0 .. 1), share : the band's share of the
+    image. Returns x (strictly increasing, xa first, xb last) and y (non-decreasing, ya
+    first, yb last)."""
+    span = yb - ya
+
+    def lin(u):  # the uniform target: the sample of rank u goes to ya + span u
+        return ya + span * u
+
+    # rank -> output: the uniform line, bent through every atom (module docstring)
+    atoms = np.flatnonzero((hi_w - lo_w) * share >= ATOM)
+    bends = []  # (rank, output, value or nan)
+    for j, i in enumerate(atoms):
+        u0, u1 = lo_w[i], hi_w[i]
+        m = u1 - u0
+        prev_end = hi_w[atoms[j - 1]] if j else 0.0
+        next_start = lo_w[atoms[j + 1]] if j + 1 < atoms.size else 1.0
+        # windows as wide as the atom, sharing a gap with a neighbouring atom half and half
+        wl = min(m, (u0 - prev_end) / (2.0 if j else 1.0))
+        wh = min(m, (next_start - u1) / (2.0 if j + 1 < atoms.size else 1.0))
+        # the mid-rank, unless a window would have to stretch more than STRETCH_MAX times;
+        # squeezed from both sides, it goes where both windows stretch alike
+        p = lin(0.5 * (u0 + u1))
+        below_max = lin(u0 - wl) + STRETCH_MAX * span * wl
+        above_min = lin(u1 + wh) - STRETCH_MAX * span * wh
+        if above_min > below_max and wl + wh > 0.0:
+            p = (lin(u0 - wl) * wh + lin(u1 + wh) * wl) / (wl + wh)
+        else:
+            p = min(max(p, above_min), below_max)
+        if wl > 0.0:
+            bends.append((u0 - wl, lin(u0 - wl), np.nan))
+        bends.append((0.5 * (u0 + u1), p, v[i]))
+        if wh > 0.0:
+            bends.append((u1 + wh, lin(u1 + wh), np.nan))
+    bu, by, bx = (np.array(c, np.float64) for c in zip(*bends)) if bends else (np.zeros(0),) * 3
+    ranks = np.concatenate([[0.0], bu, [1.0]])
+    outs = np.concatenate([[ya], by, [yb]])
+    # the dense knots: a grid in rank (no rank inside an atom) and the windows' edges, at the
+    # values the band's samples take there (its quantile function)
+    steps = max(int(np.ceil(abs(span) / KNOT_STEP)), 1)
+    grid = np.arange(1, steps) / steps
+    for i in atoms:
+        grid = grid[(grid <= lo_w[i]) | (grid >= hi_w[i])]
+    gu = np.concatenate([grid, bu[np.isnan(bx)]])
+    x = np.concatenate([np.interp(gu, 0.5 * (lo_w + hi_w), v), bx[~np.isnan(bx)]])
+    y = np.concatenate([np.interp(gu, ranks, outs), by[~np.isnan(bx)]])
+    order = np.argsort(x, kind="stable")
+    x, y = x[order], y[order]
+    inner = (x > xa) & (x < xb)
+    x = np.concatenate([[xa], x[inner], [xb]])
+    y = np.concatenate([[ya], y[inner], [yb]])
+    # equal values (ties): one knot, at their mean output
+    ux, inv = np.unique(x, return_inverse=True)
+    uy = np.bincount(inv, weights=y) / np.bincount(inv)
+    uy[0], uy[-1] = ya, yb
+    return ux, np.maximum.accumulate(uy)
 
 
-def _pixel_model(channel: Channel, width: int, height: int, r0: np.ndarray) -> _PixelModel:
-    """Measure every pixel's weights with two probe renders (caps moved by known amounts).
+def tone_curve(values: np.ndarray, levels: np.ndarray) -> np.ndarray:
+    """The tone curve that makes a channel's rendered histogram rectangular, band by band.
 
-    Probe 1 moves every cap by +-PROBE_SHIFT: a pixel that moves by PROBE_SHIFT * f is in a
-    cap region with profile weight f. Probe 2 moves cap c by PROBE_SHIFT * code_c with a
-    distinct code per cap: the ratio of the two moves names the pixel's cap. Pixels in no cap
-    lie in a band between two levels, and their weight follows from their value in r0.
+    Parameters
+    ----------
+    values : (N,) float64
+        Rendered values, 0..255 (see :func:`measure_values`).
+    levels : (L,) float64
+        The channel's levels, already reassigned: every level is a fixed point of the curve.
+
+    Returns
+    -------
+    (K, 2) float64
+        Knots (x, y) on 0..255 (model.py, Tone): x strictly increasing, y non-decreasing,
+        (l, l) among them for every level l. Inside band k the curve is the cumulative
+        distribution of the values found there, scaled onto [l_{k-1}, l_k] (onto
+        [-0.5, l_0] and [l_{L-1}, 255.5] at the ends, clipped to 0..255), with the
+        atoms of the module docstring.
     """
-    lev = channel.levels
-    L, K = lev.shape[0], channel.cap_value.shape[0]
-    v0 = r0.ravel().astype(np.float64)
-    n = v0.shape[0]
-    model = _PixelModel(n, L, K)
-    cap_pixel = np.zeros(n, bool)
-    if K:
-        sign = np.where(channel.cap_value < 127.5, 1.0, -1.0)
-        code = 1.0 + PROBE_CODE_SPAN * (np.arange(K) + 0.5) / K
-        r1 = _render_channel(replace(channel, cap_value=channel.cap_value + sign * PROBE_SHIFT), width, height)
-        r2 = _render_channel(replace(channel, cap_value=channel.cap_value + sign * PROBE_SHIFT * code),
-                             width, height)
-        d1 = r1.ravel() - v0
-        d2 = r2.ravel() - v0
-        f = np.abs(d1) / PROBE_SHIFT
-        cap_pixel = f > F_MIN
-        ratio = np.where(cap_pixel, d2 / np.where(cap_pixel, d1, 1.0), 1.0)
-        c = np.clip(np.rint((ratio - 1.0) / PROBE_CODE_SPAN * K - 0.5), 0, K - 1).astype(np.int64)
-        f = np.clip(f, 0.0, 1.0)
-        cl = _cap_levels(channel)
-        idx = np.flatnonzero(cap_pixel)
-        ci = c[idx]
-        model.ic[idx] = ci
-        model.wc[idx] = f[idx]
-        has_level = cl[ci] >= 0
-        model.il[idx[has_level]] = cl[ci[has_level]]
-        model.wl[idx[has_level]] = 1.0 - f[idx[has_level]]
-        # a cap region with no contour at all: flat at its value (f == 1), nothing else
-        model.const[idx[~has_level]] = 0.0
-    # band pixels: between levels b - 1 and b, with b the number of levels <= v
-    rest = np.flatnonzero(~cap_pixel)
-    if L and rest.size:
-        v = v0[rest]
-        b = np.searchsorted(lev, v, side="right")
-        inner = (b >= 1) & (b <= L - 1)
-        i_in = rest[inner]
-        bi = b[inner]
-        lo, hi = lev[bi - 1], lev[bi]
-        w = np.clip((v[inner] - lo) / (hi - lo), 0.0, 1.0)
-        model.il[i_in], model.ir[i_in] = bi - 1, bi
-        model.wl[i_in], model.wr[i_in] = 1.0 - w, w
-        # outside every level (regions without annotation): a fixed offset from the end level
-        out_ = rest[~inner]
-        end = np.where(b[~inner] == 0, 0, L - 1)
-        model.il[out_] = end
-        model.wl[out_] = 1.0
-        model.const[out_] = v[~inner] - lev[end]
-    elif rest.size:
-        model.const[rest] = v0[rest]
-    return model
+    v = np.clip(np.asarray(values, dtype=np.float64), 0.0, 255.0)
+    uv, counts = np.unique(v, return_counts=True)
+    uw = counts / max(v.shape[0], 1)
+    levels = np.asarray(levels, dtype=np.float64)
+    if levels.ndim != 1 or not np.all(np.diff(levels) > 0) or (levels.size and not 0 < levels[0] <= levels[-1] < 255):
+        raise OptionError("levels must be strictly increasing inside (0, 255)")
+    ext_x = np.concatenate([[0.0], levels, [255.0]])
+    ext_y = np.concatenate([[-0.5], levels, [255.5]])
+    # values in [l_{k-1}, l_k) belong to band k; the top band keeps 255 itself
+    cut = np.searchsorted(uv, ext_x, side="left")
+    cut[-1] = uv.shape[0]
+    xs, ys = [], []
+    n_bands = ext_x.shape[0] - 1
+    for b in range(n_bands):
+        xa, xb, ya, yb = ext_x[b], ext_x[b + 1], ext_y[b], ext_y[b + 1]
+        bv, bw = uv[cut[b] : cut[b + 1]], uw[cut[b] : cut[b + 1]]
+        total = bw.sum()
+        if bv.size == 0 or total <= 0.0:
+            x, y = np.array([xa, xb]), np.array([ya, yb])
+        else:
+            hi = np.cumsum(bw) / total
+            x, y = _band_curve(bv, hi - bw / total, hi, total, xa, xb, ya, yb)
+        keep = _simplify(x, np.clip(y, 0.0, 255.0), KNOT_TOLERANCE)
+        x, y = x[keep], y[keep]
+        if xs:
+            x, y = x[1:], y[1:]  # the shared level knot
+        xs.append(x)
+        ys.append(y)
+    return np.stack([np.concatenate(xs), np.clip(np.concatenate(ys), 0.0, 255.0)], axis=1)
 
 
-def _targets(v: np.ndarray) -> np.ndarray:
-    """Exact histogram specification: pixel of rank r (ties by position) goes to the centre
-    of the r-th of n equal slices of [-0.5, 255.5]."""
-    n = v.shape[0]
-    order = np.argsort(v, kind="stable")
-    t = np.empty(n)
-    t[order] = (np.arange(n) + 0.5) * (256.0 / n) - 0.5
-    return t
-
-
-def _cap_bounds(channel: Channel, levels: np.ndarray):
-    """(K,) lower and upper bound of each cap value: its band's two levels (the scale's ends
-    for the bands below the first and above the last level)."""
-    b = channel.cap_band.astype(np.int64)
-    ext = np.concatenate([[0.0], levels, [255.0]])
-    return ext[b], ext[b + 1]
-
-
-def _caps_in_bands(caps, channel: Channel, levels) -> np.ndarray:
-    """Cap values on the 1/64 grid of the file format, inside their bands where the band is
-    wider than one grid step (else the nearest grid value)."""
-    lo, hi = _cap_bounds(channel, levels)
-    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
-    q = _quantise_values(np.clip(caps, lo, hi))
-    qlo, qhi = np.ceil(lo * VALUE_QUANT) / VALUE_QUANT, np.floor(hi * VALUE_QUANT) / VALUE_QUANT
-    room = qlo <= qhi
-    q = np.where(room, np.clip(q, qlo, qhi), q)
-    return np.clip(q, 0.0, 255.0)
-
-
-def _fit(model: _PixelModel, channel: Channel, levels, caps, iterations: int):
-    """Alternating least squares of the model's values against the rank targets."""
-    L, K = model.L, model.K
-    for _ in range(iterations):
-        t = _targets(model.predict(levels, caps))
-        if K:
-            # caps, levels fixed: one independent 1-D least squares per cap
-            rest = t - model.wl * levels[model.il] - model.wr * levels[model.ir] - model.const
-            num = np.bincount(model.ic, weights=model.wc * rest, minlength=K)
-            den = np.bincount(model.ic, weights=model.wc * model.wc, minlength=K)
-            lo, hi = _cap_bounds(channel, levels)
-            fitted = np.where(den > 1e-9, num / np.maximum(den, 1e-12), caps)
-            caps = np.clip(fitted, np.minimum(lo, hi), np.maximum(lo, hi))
-        if L:
-            # levels, caps fixed: normal equations of a sparse (L x L) system
-            rhs_t = t - model.wc * (caps[model.ic] if K else 0.0) - model.const
-            A = np.zeros((L, L))
-            rhs = np.zeros(L)
-            for ia, wa in ((model.il, model.wl), (model.ir, model.wr)):
-                rhs += np.bincount(ia, weights=wa * rhs_t, minlength=L)
-                for ib, wb in ((model.il, model.wl), (model.ir, model.wr)):
-                    A += np.bincount(ia * L + ib, weights=wa * wb, minlength=L * L).reshape(L, L)
-            # a ridge towards the current levels (LEVEL_RIDGE pixels' worth): a level that few
-            # pixels depend on must not fly off; then each level stays between its neighbours
-            A[np.diag_indices(L)] += LEVEL_RIDGE
-            rhs += LEVEL_RIDGE * levels
-            new = np.linalg.solve(A, rhs)
-            ext = np.concatenate([[LEVEL_MIN], levels, [LEVEL_MAX]])
-            new = np.clip(new, ext[:-2], ext[2:])
-            levels = monotone_levels(new)
-    return levels, caps
-
-
-def refine(channel: Channel, width: int, height: int, iterations: int = 8):
-    """Refit levels and cap values so that the rendered channel's histogram is as close to
-    rectangular as the contours allow (see the module docstring). Returns (channel, info)."""
-    r0 = _render_channel(channel, width, height)
-    model = _pixel_model(channel, width, height, r0)
-    err = float(np.abs(model.predict(channel.levels, channel.cap_value) - r0.ravel()).max())
-    levels, caps = _fit(model, channel, channel.levels.copy(), channel.cap_value.copy(), iterations)
-    out = replace(channel, levels=levels, cap_value=_caps_in_bands(caps, channel, levels))
-    measured = histogram_stats(_render_channel(out, width, height))
-    return out, {"model_error": err, "measured": measured}
+def with_tone(channel: Channel, width: int, height: int) -> Channel:
+    """The channel with the tone curve that makes its rendered histogram rectangular (see
+    the module docstring); levels, caps and contours unchanged."""
+    if channel.levels.shape[0] == 0:
+        return replace(channel, tone=None)
+    return replace(channel, tone=tone_curve(measure_values(channel, width, height), channel.levels))
 
 
 # =============================================================================================
@@ -380,48 +393,48 @@ def refine(channel: Channel, width: int, height: int, iterations: int = 8):
 # =============================================================================================
 
 
-def equalise(vi: VectorImage, refine_render: bool = True, iterations: int = 8, info: dict | None = None) -> VectorImage:
+def equalise(vi: VectorImage, refine_render: bool = True, info: dict | None = None) -> VectorImage:
     """Histogram-equalise a vector image's luminance by level reassignment (§5).
 
     Parameters
     ----------
     vi : VectorImage
     refine_render : bool
-        After the exact-area reassignment, measure the rendered channel and refit levels and
-        cap values to a rectangular histogram (three renders of Y, plus one to check). With
-        False only the areas are used: no rendering, instant.
-    iterations : int
-        Alternating least-squares rounds of the refinement.
+        After the exact-area reassignment, render the Y channel (at 2x) and give it the
+        tone curve that makes the distribution inside every band uniform. With False
+        only the exact areas are used: no rendering, instant, and no tone curve.
     info : dict, optional
-        Filled with ``areas`` (fraction of the image >= each old level), ``levels`` (old and
-        new) and, with refinement, ``model_error`` (largest difference in grey levels between
-        the measured pixel model and the render) and ``measured``: :func:`histogram_stats` of
-        the equalised Y channel rendered at 1x.
+        Filled with ``area_above`` (fraction of the image >= each old level),
+        ``old_levels``, ``new_levels``, ``tone_knots`` (0 without a tone curve) and, with
+        refinement, ``measured``: :func:`histogram_stats` of the equalised Y channel
+        rendered at 1x.
 
     Returns
     -------
     VectorImage
-        Same contours; the Y channel's levels and cap values reassigned. U, V and A as they
-        were.
+        Same contours; the Y channel's levels and cap values reassigned and (with
+        refinement) its tone curve set; any earlier tone curve of Y is replaced. U, V and A
+        as they were.
     """
     if not isinstance(vi, VectorImage):
         raise OptionError(f"expected a VectorImage, got {type(vi).__name__}")
     y = vi.channel("Y")
     w, h = vi.width, vi.height
-    eq = reassign_levels(y, w, h)
+    eq = replace(reassign_levels(y, w, h), tone=None)
     details = {
         "area_above": (level_areas(y, w, h) / (float(w) * float(h))).tolist(),
         "old_levels": y.levels.tolist(),
     }
     if refine_render and y.levels.shape[0]:
-        eq, extra = refine(eq, w, h, iterations)
-        details.update(extra)
+        eq = with_tone(eq, w, h)
+        details["measured"] = histogram_stats(_render_channel(eq, w, h))
     details["new_levels"] = eq.levels.tolist()
+    details["tone_knots"] = 0 if eq.tone is None else int(eq.tone.shape[0])
     if info is not None:
         info.update(details)
     channels = tuple(eq if ch.name == "Y" else ch for ch in vi.channels)
     meta = dict(vi.meta)
-    meta["equalised"] = "levels+caps" if refine_render else "levels"
+    meta["equalised"] = "levels+tone" if eq.tone is not None else "levels"
     return replace(vi, channels=channels, meta=meta)
 
 

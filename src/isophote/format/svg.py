@@ -14,9 +14,9 @@ One document does two jobs:
   the background). A rectangle in the root region's colour lies underneath. The preview is
   opaque: an alpha channel is kept (losslessly, hidden) but not shown.
 - the DATA: every contour of every channel, its level, its parent, its border flags, every
-  cap annotation, the levels and base band of each channel, and the image's size, colour,
-  source depth and meta. The Y contours ARE the preview's paths (nothing is stored twice);
-  U, V and A sit in hidden layers. ``from_svg(to_svg(vi))`` equals ``vi`` exactly
+  cap annotation, the levels, base band and tone curve of each channel, and the image's
+  size, colour, source depth and meta. The Y contours ARE the preview's paths (nothing is
+  stored twice); U, V and A sit in hidden layers. ``from_svg(to_svg(vi))`` equals ``vi`` exactly
   (``VectorImage.equals``, dtypes included, for any valid image, on the 1/64 grid or not).
 
 Layout::
@@ -30,7 +30,8 @@ Layout::
       <rect width="W" height="H" fill="#rrggbb"/>                      (preview only)
       <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
          transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
-         iso:base-band="0" iso:caps="contour band x y value ...">
+         iso:base-band="0" iso:caps="contour band x y value ..."
+         [iso:tone="x0 y0 x1 y1 ..."]>
         <path iso:c="k level parent orientation segments" [iso:b="0011..."]
               fill="#rrggbb" d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
         ...
@@ -63,6 +64,12 @@ of the path (Inkscape bakes moves, rotations and flips into path data, markers i
 so caps turn and mirror with their contour. For those caps (x, y) is a fallback, the offset
 from the contour's first point to the nearest layer unit, used when the markers are gone
 (Inkscape's Simplify drops them). ``value`` and the levels are shortest round-trip decimals.
+
+Tone: ``iso:tone`` (only on a channel that has a tone curve, model.py's Channel.tone) lists
+the curve's knots as "x y" pairs in order, shortest round-trip decimals (exact): at least
+two knots, at most MAX_TONE_KNOTS (.isoph's limit), every number in [0, 255], x strictly increasing, y
+non-decreasing. No attribute: no tone curve. The preview's colours are taken from the
+render, so they show the tone curve too.
 
 Preview colours: each Y region's mean over a 1x render of the image (by default the flat
 fill), or, where the colour drifts across a region enough to matter (GRADIENT_MIN_GAIN), a
@@ -104,7 +111,8 @@ gunzip, which stops reading at the limit), a DTD with entity declarations (refus
 entity expansion at all), XML that does not parse, a root that is not an isophote SVG,
 unknown format version, colour, depth or channel layout, bad numbers (not finite, beyond
 the .isoph limits), malformed transforms or path data, duplicate contours, levels, parents,
-bands out of range, parent cycles. The work is linear in the size of the text.
+bands out of range, parent cycles, tone curves that are not monotone or leave 0..255. The
+work is linear in the size of the text.
 """
 
 from __future__ import annotations
@@ -133,6 +141,7 @@ from .isoph import (
     MAX_LEVELS,
     MAX_META_BYTES,
     MAX_SEGMENTS,
+    MAX_TONE_KNOTS,
     MAX_WIDTH,
     QUANT,
     SOURCE_DEPTHS,
@@ -315,6 +324,18 @@ def _check_image(vi) -> None:
                          ch.cap_contour.astype(np.int64))
         if not 0 <= int(ch.base_band) <= levels.shape[0]:
             raise FormatError(f"channel {label}: base band {ch.base_band} is outside [0, {levels.shape[0]}]")
+        if ch.tone is not None:
+            _check_tone(np.asarray(ch.tone), label)
+
+
+def _check_tone(tone: np.ndarray, label: str) -> None:
+    """A tone curve as model.py defines it (FormatError otherwise)."""
+    if tone.ndim != 2 or tone.shape[1] != 2 or not 2 <= tone.shape[0] <= MAX_TONE_KNOTS:
+        raise FormatError(f"channel {label}: a tone curve must be 2 to {MAX_TONE_KNOTS} (x, y) knots")
+    if not np.all(np.isfinite(tone)) or tone.min() < 0.0 or tone.max() > 255.0:
+        raise FormatError(f"channel {label}: a tone knot is not finite or outside 0..255")
+    if not (np.all(np.diff(tone[:, 0]) > 0) and np.all(np.diff(tone[:, 1]) >= 0)):
+        raise FormatError(f"channel {label}: a tone curve must have x strictly increasing, y non-decreasing")
 
 
 def _escape(s: str) -> str:
@@ -352,6 +373,8 @@ def _channel_layer(ch: Channel, fills) -> list:
     caps = _caps_text(ch, q)
     if caps:
         attrs.append(f'iso:caps="{caps}"')
+    if ch.tone is not None:
+        attrs.append(f'iso:tone="{" ".join(_nums(np.asarray(ch.tone, np.float64).reshape(-1)))}"')
     if fills is None:
         attrs.append(f'style="display:none" fill="none" stroke="{UV_STROKES.get(label, "#000")}" '
                      f'stroke-width="{LOCAL_SCALE // 4}"')
@@ -1056,9 +1079,9 @@ def _one_chain(d: str, label: str, k: int):
 class _ChannelData:
     """What the reader gathers for one channel layer."""
 
-    def __init__(self, name, levels, base_band, caps, group_m):
+    def __init__(self, name, levels, base_band, caps, group_m, tone=None):
         self.name, self.levels, self.base_band = name, levels, base_band
-        self.caps, self.group_m = caps, group_m
+        self.caps, self.group_m, self.tone = caps, group_m, tone
         # k -> [chain (None until built), level, parent, area sign, segments as written,
         #       border text, matrix, canonical parts, markers]
         self.contours = {}
@@ -1170,7 +1193,16 @@ class _Reader:
         caps = np.array(caps, np.float64).reshape(-1, 5)
         if not (np.all(caps[:, :2] == np.rint(caps[:, :2])) and np.all(np.abs(caps[:, :2]) < 2**31)):
             raise FormatError(f"channel {name}: a cap's contour or band is not an integer")
-        ch = _ChannelData(name, levels, bb[0], caps, m)
+        tone = None
+        if el.get(_I + "tone") is not None:
+            knots = _attr_floats(el.get(_I + "tone"), f"channel {name} tone")
+            if len(knots) % 2:
+                raise FormatError(f"channel {name}: tone knots must come in pairs (x y)")
+            if len(knots) // 2 > MAX_TONE_KNOTS:
+                raise LimitError(f"channel {name}: {len(knots) // 2} tone knots exceed the limit of {MAX_TONE_KNOTS}")
+            tone = np.array(knots, np.float64).reshape(-1, 2)
+            _check_tone(tone, name)
+        ch = _ChannelData(name, levels, bb[0], caps, m, tone)
         self.channels.append(ch)
         return ch
 
@@ -1305,6 +1337,7 @@ class _Reader:
             cap_xy=cap_xy.astype(np.float64),
             cap_value=cap_value.astype(np.float64),
             base_band=int(cd.base_band),
+            tone=cd.tone,
         )
 
     def _frame_segments(self, chain: np.ndarray) -> np.ndarray:

@@ -1,0 +1,254 @@
+"""Compact coding in .isoph (issue 4): bytes per coding step, per stream, and what each
+encoder grid costs in render quality.
+
+For each corpus photograph, encoded with the paper preset at each encoder grid QUANT (the
+control points' and cap values' grid; the fitter shrinks its ribbon by the rounding), this
+measures the .isoph bytes of
+
+    columns+zlib   version 1's coding: byte-planed column layout, zlib (the old default)
+    columns+lzma   the same columns, LZMA2
+    columns+rc     the same column values, adaptive range coder (one model per column)
+    range, g=0     range coding with predictions and context models, no anchor grid
+    range          ... and the anchor grid (the writer's default, compression "range")
+
+and the render's PSNR / SSIMULACRA2 against the original at 1x (the decoder's defaults), all
+in one run so that every number comes from the same decoder. Then bytes per stream (zlib per
+column for the columns, the coder's own bit count per model for range coding) and the
+write / read times of dumps / loads.
+
+    .venv/bin/python benchmarks/coding.py [--images ...] [--quants 64,32,16] [--out benchmarks/results]
+
+The encoder's QUANT is a module constant; this script sets it (and the fitter's shrink
+``_ROUNDING``) for each row and puts it back afterwards.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import zlib
+
+import numpy as np
+
+from corpus import corpus_sizes, load_corpus
+import isophote
+import isophote.encoder as encoder
+from isophote import metrics
+from isophote._kernels import entropy
+from isophote.format import isoph
+
+STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range, g=0", "range"]
+
+
+def encode_at(img, quant: int):
+    saved = encoder.QUANT, encoder._ROUNDING
+    encoder.QUANT, encoder._ROUNDING = quant, 0.5 / quant * np.sqrt(2.0)
+    try:
+        return isophote.encode(img, preset="paper")
+    finally:
+        encoder.QUANT, encoder._ROUNDING = saved
+
+
+def column_values(ch) -> dict:
+    """The column layout's columns as signed values (before zigzag and planes)."""
+    c = ch.level.shape[0]
+    d = np.diff(isoph._stored_points(ch), axis=0, prepend=np.zeros((1, 2), np.int64))
+    return {
+        "level": np.diff(ch.level, prepend=0),
+        "nseg": ch.nseg - 1,
+        "parent": np.where(ch.parent < 0, 0, np.arange(c) - ch.parent),
+        "points": d.ravel(),
+        "cap_band": ch.cap_band,
+        "cap_contour": np.diff(ch.cap_contour, prepend=-1),
+        "cap_xy": (ch.cq - isoph._cap_origins(ch.q, ch.offsets, ch.cap_contour)).ravel(),
+        "cap_value": ch.vq,
+        "border": ch.border.astype(np.int64),
+    }
+
+
+def columns_rc(checked) -> int:
+    """The column values through the adaptive range coder, one model per column."""
+    total = 0
+    for ch in checked:
+        cols = column_values(ch)
+        vals = np.concatenate([v.astype(np.int64) for v in cols.values()])
+        models = np.concatenate([np.full(len(v), i, np.int64) for i, v in enumerate(cols.values())])
+        total += len(entropy.encode_ints(vals, models, True))
+    return total
+
+
+def range_bytes(checked, g_forced=None, account=False):
+    """Range-coded bytes of the channels (header excluded), and the bits per model."""
+    total, bits = 0, np.zeros(entropy.N_MODELS + 18)
+    for ch in checked:
+        info = ch.info
+        pts = isoph._stored_points(ch)
+        s_p, s_c, s_v = isoph._grid_shift(pts), isoph._grid_shift(ch.cq), isoph._grid_shift(ch.vq)
+        pts = pts >> s_p
+        g = isoph._anchor_shift(pts[0::3]) if g_forced is None else g_forced
+        coded, b = entropy.encode_channel(
+            ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), g,
+            ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> s_c), ch.vq >> s_v,
+            s_p, s_c, s_v, info.levels, info.base_band, account)
+        total += len(coded)
+        bits += b
+    return total, bits
+
+
+STREAMS = {  # range coding's models, by stream
+    "parent": ["RANK", "FAR"], "level": ["LEVEL_REL", "LEVEL_ABS"], "nseg": ["NSEG"],
+    "first points": ["P0F", "P0C"], "chords": ["DFX", "DFY", "DCX", "DCY"],
+    "handles": ["HX", "HY", "GX", "GY"], "cap_contour": ["CC"], "cap_band": ["BAND_REL", "BAND_ROOT"],
+    "cap_xy": ["CXY"], "cap_value": ["CVAL"],
+}
+
+
+def stream_bytes_range(bits) -> dict:
+    counts = dict(entropy._MODELS)
+    out = {}
+    for stream, names in STREAMS.items():
+        out[stream] = sum(bits[entropy.M[n] : entropy.M[n] + counts[n]].sum() for n in names) / 8
+    out["border"] = bits[entropy.N_MODELS : entropy.N_MODELS + 3].sum() / 8
+    out["anchor flags"] = bits[entropy.N_MODELS + 3 :].sum() / 8
+    return out
+
+
+def stream_bytes_columns(checked) -> dict:
+    out = {}
+    for ch in checked:
+        raw = isoph._column_channel(ch)
+        c, s, k = ch.info.n_contours, ch.info.n_segments, ch.info.n_caps
+        pos = 0
+        for name, n in [("level", 2 * c), ("nseg", 4 * c), ("parent", 4 * c), ("points", 24 * s),
+                        ("cap_band", 2 * k), ("cap_contour", 4 * k), ("cap_xy", 8 * k),
+                        ("cap_value", 4 * k), ("border", (s + 7) // 8)]:
+            out[name] = out.get(name, 0) + len(zlib.compress(raw[pos : pos + n], isoph.ZLIB_LEVEL))
+            pos += n
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--images", default="astronaut,coffee,chelsea,camera,rocket")
+    ap.add_argument("--quants", default="64,32,16,8")
+    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results"))
+    args = ap.parse_args(argv)
+    names = args.images.split(",")
+    quants = [int(q) for q in args.quants.split(",")]
+    corpus = load_corpus(tuple(names))
+    png = {n: s.png_bytes for n, s in corpus_sizes(corpus).items()}
+    warm = isophote.encode(np.zeros((8, 8, 3), np.uint8) + np.arange(8)[:, None, None] * 30)  # compile
+    warm.render()
+    for comp in ("range", "zlib"):
+        isoph.loads(isoph.dumps(warm, compression=comp))
+    columns_rc([isoph._checked_channel(c) for c in warm.channels])
+    range_bytes([isoph._checked_channel(c) for c in warm.channels], account=True)
+
+    rows = {}  # (step, quant) -> {image: bytes}
+    quality = {}  # quant -> {image: (psnr, ssimulacra2, segments)}
+    streams_cols, streams_range, times = {}, {}, {}
+    for q in quants:
+        quality[q] = {}
+        for name in names:
+            img = corpus[name]
+            vi = encode_at(img, q)
+            out = vi.render()
+            segs = sum(c.n_segments for c in vi.channels)
+            quality[q][name] = (metrics.psnr(img, out), metrics.ssimulacra2(img, out), segs)
+            checked = [isoph._checked_channel(c) for c in vi.channels]
+            steps = {"range": len(isoph.dumps(vi))}
+            header = steps["range"] - range_bytes(checked)[0]
+            if q == quants[0]:
+                steps["columns+zlib"] = len(isoph.dumps(vi, compression="zlib"))
+                steps["columns+lzma"] = len(isoph.dumps(vi, compression="lzma"))
+                steps["columns+rc"] = header + columns_rc(checked)
+                steps["range, g=0"] = header + range_bytes(checked, g_forced=0)[0]
+                streams_cols[name] = stream_bytes_columns(checked)
+                streams_range[name] = stream_bytes_range(range_bytes(checked, account=True)[1])
+                for comp in ("zlib", "range"):
+                    t0 = time.perf_counter()
+                    data = isoph.dumps(vi, compression=comp)
+                    t1 = time.perf_counter()
+                    back = isoph.loads(data)
+                    t2 = time.perf_counter()
+                    assert back.equals(vi)
+                    times[(name, comp)] = (t1 - t0, t2 - t1, segs)
+            for step, nbytes in steps.items():
+                rows.setdefault((step, q), {})[name] = nbytes
+            p, s2, _ = quality[q][name]
+            print(f"QUANT {q:2d} {name:10s} segments {segs:7d} PSNR {p:.3f} SSIMULACRA2 {s2:.2f} "
+                  + " ".join(f"{k} {v}" for k, v in steps.items()), flush=True)
+
+    q0 = quants[0]
+    base = rows[("columns+zlib", q0)]
+    lines = [
+        "# Compact coding in .isoph (issue 4)",
+        "",
+        "Generated by `.venv/bin/python benchmarks/coding.py` (paper preset; bytes are whole files;",
+        "x PNG is the mean over the photographs of .isoph bytes / PNG bytes, PNG from Pillow",
+        "with optimize=True; PSNR and SSIMULACRA2 of the 1x render against the original, the",
+        "decoder's defaults, all from one run).",
+        "",
+        "## Bytes per step",
+        "",
+        "| step | QUANT | " + " | ".join(names) + " | mean x PNG | vs columns+zlib | mean PSNR dB | mean SSIMULACRA2 |",
+        "|---|---|" + "---|" * len(names) + "---|---|---|---|",
+    ]
+    ordered = [(s, q0) for s in STEPS] + [("range", q) for q in quants[1:]]
+    for step, q in ordered:
+        r = rows[(step, q)]
+        xpng = np.mean([r[n] / png[n] for n in names])
+        rel = np.mean([r[n] / base[n] for n in names])
+        mp = np.mean([quality[q][n][0] for n in names])
+        ms = np.mean([quality[q][n][1] for n in names])
+        lines.append(f"| {step} | {q} | " + " | ".join(f"{r[n]:,}" for n in names)
+                     + f" | {xpng:.2f} | {rel:.3f} | {mp:.3f} | {ms:.2f} |")
+    lines += ["", "PNG bytes: " + ", ".join(f"{n} {png[n]:,}" for n in names), ""]
+
+    lines += [f"## Each encoder grid against QUANT {q0} (range coding)", "",
+              "| QUANT | bytes | segments | PSNR change dB | SSIMULACRA2 change |", "|---|---|---|---|---|"]
+    for q in quants[1:]:
+        b = np.mean([rows[("range", q)][n] / rows[("range", q0)][n] for n in names])
+        sg = np.mean([quality[q][n][2] / quality[q0][n][2] for n in names])
+        dp = np.mean([quality[q][n][0] - quality[q0][n][0] for n in names])
+        ds = np.mean([quality[q][n][1] - quality[q0][n][1] for n in names])
+        lines.append(f"| {q} | {b:.3f} | {sg:.3f} | {dp:+.3f} | {ds:+.2f} |")
+    lines.append("")
+
+    lines += ["## Render quality and segments per encoder grid", "",
+              "| QUANT | " + " | ".join(f"{n} PSNR / S2 / segments" for n in names) + " |",
+              "|---|" + "---|" * len(names)]
+    for q in quants:
+        lines.append(f"| {q} | " + " | ".join(
+            f"{quality[q][n][0]:.3f} / {quality[q][n][1]:.2f} / {quality[q][n][2]:,}" for n in names) + " |")
+    lines.append("")
+
+    lines += [f"## Bytes per stream, QUANT {q0} (all photographs)", "",
+              "Columns: each column zlib-compressed on its own. Range: the coder's bit count per",
+              "model (exact to a few bytes per channel).", "",
+              "| columns+zlib stream | bytes | range stream | bytes |", "|---|---|---|---|"]
+    cs = {k: sum(streams_cols[n][k] for n in names) for k in streams_cols[names[0]]}
+    rs = {k: sum(streams_range[n][k] for n in names) for k in streams_range[names[0]]}
+    ck, rk = list(cs), list(rs)
+    for i in range(max(len(ck), len(rk))):
+        a = f"{ck[i]} | {cs[ck[i]]:,.0f}" if i < len(ck) else " | "
+        b = f"{rk[i]} | {rs[rk[i]]:,.0f}" if i < len(rk) else " | "
+        lines.append(f"| {a} | {b} |")
+    lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(rs.values()):,.0f} |", ""]
+
+    lines += [f"## Write / read time, QUANT {q0}", "", "| image | segments | zlib write s | zlib read s | range write s | range read s |",
+              "|---|---|---|---|---|---|"]
+    for n in names:
+        z, r = times[(n, "zlib")], times[(n, "range")]
+        lines.append(f"| {n} | {z[2]:,} | {z[0]:.3f} | {z[1]:.3f} | {r[0]:.3f} | {r[1]:.3f} |")
+    lines.append("")
+    text = "\n".join(lines)
+    print(text)
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "coding.md"), "w") as f:
+        f.write(text)
+
+
+if __name__ == "__main__":
+    main()

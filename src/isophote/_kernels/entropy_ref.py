@@ -1,0 +1,467 @@
+"""The plain-Python twin of ``entropy.py``: the same range coder and channel layout, written
+as directly from the specification (format/isoph.py, "Range-coded channels") as possible,
+with Python integers and objects instead of flat arrays. Slow; the tests run both on random
+inputs and require the same bytes and the same decoded arrays.
+"""
+
+from __future__ import annotations
+
+import math
+
+# The constants are the specification's; they are repeated here, not imported, so that a
+# change to one implementation cannot silently change the other.
+PROB_ONE = 1 << 15
+KMAX = 40
+NB = 12
+PATH_MAX = 32
+LIMIT = 1 << 30
+
+
+class Bit:
+    """One adaptive probability: the mean of a fast and a slow estimate of P(bit = 0)."""
+
+    __slots__ = ("fast", "slow")
+
+    def __init__(self):
+        self.fast = self.slow = PROB_ONE // 2
+
+    def p0(self) -> int:
+        return (self.fast + self.slow) >> 1
+
+    def update(self, bit: int) -> None:
+        if bit == 0:
+            self.fast += (PROB_ONE - self.fast) >> 4
+            self.slow += (PROB_ONE - self.slow) >> 7
+        else:
+            self.fast -= self.fast >> 4
+            self.slow -= self.slow >> 7
+
+
+class Encoder:
+    def __init__(self):
+        self.low = 0
+        self.range = 0xFFFFFFFF
+        self.cache = 0
+        self.pending = 1  # bytes held back: the cache and a run of 0xFF after it
+        self.out = bytearray()
+
+    def _shift_low(self):
+        if self.low < 0xFF000000 or self.low >= 1 << 32:
+            carry = self.low >> 32
+            byte = self.cache
+            while self.pending:
+                self.out.append((byte + carry) & 0xFF)
+                byte = 0xFF
+                self.pending -= 1
+            self.cache = (self.low >> 24) & 0xFF
+        self.pending += 1
+        self.low = (self.low & 0x00FFFFFF) << 8
+
+    def bit(self, model: Bit, bit: int) -> None:
+        bound = (self.range >> 15) * model.p0()
+        if bit == 0:
+            self.range = bound
+        else:
+            self.low += bound
+            self.range -= bound
+        model.update(bit)
+        while self.range < 1 << 24:
+            self.range <<= 8
+            self._shift_low()
+
+    def finish(self) -> bytes:
+        for _ in range(5):
+            self._shift_low()
+        assert self.out[0] == 0
+        return bytes(self.out[1:])
+
+
+class Decoder:
+    def __init__(self, data: bytes):
+        self.data = data
+        self.pos = 0
+        self.overrun = False
+        self.range = 0xFFFFFFFF
+        self.code = 0
+        for _ in range(4):
+            self.code = (self.code << 8) | self._byte()
+
+    def _byte(self) -> int:
+        if self.pos < len(self.data):
+            b = self.data[self.pos]
+        else:
+            b, self.overrun = 0, True
+        self.pos += 1
+        return b
+
+    def bit(self, model: Bit) -> int:
+        bound = (self.range >> 15) * model.p0()
+        if self.code < bound:
+            self.range = bound
+            bit = 0
+        else:
+            self.code -= bound
+            self.range -= bound
+            bit = 1
+        model.update(bit)
+        while self.range < 1 << 24:
+            self.range <<= 8
+            self.code = ((self.code << 8) | self._byte()) & 0xFFFFFFFF
+        return bit
+
+    def status(self) -> str:
+        if self.overrun:
+            return "short"
+        return "ok" if self.pos == len(self.data) else "long"
+
+
+class IntModel:
+    """An adaptive model of integers: unary bit length, the top two mantissa bits in a bit
+    tree per bit length, a probability per position of the lower mantissa bits (the same
+    for every bit length), and a sign."""
+
+    def __init__(self):
+        self.unary = [Bit() for _ in range(KMAX - 1)]
+        self.mant = {}  # (k, tree node) or ("low", position) -> Bit, made when first used
+        self.sign = Bit()
+
+    def _m(self, k, i):
+        b = self.mant.get((k, i))
+        if b is None:
+            b = self.mant[(k, i)] = Bit()
+        return b
+
+    def put_uint(self, enc: Encoder, v: int) -> None:
+        assert 0 <= v <= (1 << KMAX) - 2
+        m = v + 1
+        k = m.bit_length() - 1
+        for j in range(KMAX - 1):
+            if j == k:
+                enc.bit(self.unary[j], 0)
+                break
+            enc.bit(self.unary[j], 1)
+        node = 1
+        for pos in range(k):
+            bit = (m >> (k - 1 - pos)) & 1
+            if pos < 2:
+                enc.bit(self._m(k, node), bit)
+                node = 2 * node + bit
+            else:
+                enc.bit(self._m("low", pos), bit)
+
+    def get_uint(self, dec: Decoder) -> int:
+        k = 0
+        while k < KMAX - 1 and dec.bit(self.unary[k]):
+            k += 1
+        m = node = 1
+        for pos in range(k):
+            if pos < 2:
+                bit = dec.bit(self._m(k, node))
+                node = 2 * node + bit
+            else:
+                bit = dec.bit(self._m("low", pos))
+            m = 2 * m + bit
+        return m - 1
+
+    def put(self, enc: Encoder, v: int) -> None:
+        self.put_uint(enc, abs(v))
+        if v:
+            enc.bit(self.sign, 1 if v < 0 else 0)
+
+    def get(self, dec: Decoder) -> int:
+        a = self.get_uint(dec)
+        return -a if a and dec.bit(self.sign) else a
+
+
+class Models:
+    """Every model and flag probability of one channel, made on first use."""
+
+    def __init__(self):
+        self.ints = {}
+        self.bits = {}
+
+    def int(self, *key) -> IntModel:
+        if key not in self.ints:
+            self.ints[key] = IntModel()
+        return self.ints[key]
+
+    def bit(self, *key) -> Bit:
+        if key not in self.bits:
+            self.bits[key] = Bit()
+        return self.bits[key]
+
+
+def bucket(v: int) -> int:
+    return min(abs(v).bit_length(), NB - 1)
+
+
+def rnd3(v: int) -> int:
+    return (v + 1) // 3
+
+
+def level_pred(levels, lev: int, shift: int) -> int:
+    x = min(max(float(levels[lev]) * 64.0, -LIMIT), LIMIT)
+    return math.floor(x + 0.5) >> shift
+
+
+def candidates(parent, k):
+    """The parent candidates of contour k: k - 1 and its ancestors, as far as known."""
+    out, x = [], k - 1
+    while len(out) < PATH_MAX:
+        out.append(x)
+        if x < 0 or x >= k:
+            break
+        x = parent[x]
+    return out
+
+
+def on_grid(v: int, g: int) -> bool:
+    return v % (1 << g) == 0
+
+
+def anchor_flag(x: int, y: int, g: int) -> int:
+    return (1 if on_grid(x, g) else 0) | (2 if on_grid(y, g) else 0) if g else 0
+
+
+def put_flag4(enc, models, ctx, f):
+    enc.bit(models.bit("anchor", ctx, 0), f & 1)
+    enc.bit(models.bit("anchor", ctx, 1 + (f & 1)), f >> 1)
+
+
+def get_flag4(dec, models, ctx):
+    b1 = dec.bit(models.bit("anchor", ctx, 0))
+    return b1 | (dec.bit(models.bit("anchor", ctx, 1 + b1)) << 1)
+
+
+def put_coord(enc, model_fine, model_coarse, on, new, old, g):
+    """A coordinate after ``old``: coarse (on the anchor grid) when ``on``, else fine."""
+    if on:
+        model_coarse.put(enc, (new >> g) - ((old + ((1 << g) >> 1)) >> g))
+    else:
+        model_fine.put(enc, new - old)
+
+
+def get_coord(dec, model_fine, model_coarse, on, old, g):
+    if on:
+        return (((old + ((1 << g) >> 1)) >> g) + model_coarse.get(dec)) << g
+    return old + model_fine.get(dec)
+
+
+def encode_channel(ch: dict) -> bytes:
+    """ch: level, nseg, parent, chains (per contour, its 3 n stored points on the point grid),
+    border (per segment), g, cap_contour, cap_band, cap_xy (cap grid), cap_value (value grid),
+    s_p, s_c, s_v, levels, base_band.
+
+    It codes whatever it is given, lies included (segment counts that do not fit the chains,
+    levels or cap contours out of range: (0, 0) and 0 stand in for what does not exist), so
+    that tests can craft invalid files with valid coding.
+    """
+    enc, mo = Encoder(), Models()
+    level, parent, g = ch["level"], ch["parent"], ch["g"]
+    c = len(level)
+    prev_rank = 0
+    for k in range(c):
+        cand = candidates(parent, k)
+        rank = cand.index(parent[k]) + 1 if parent[k] in cand else 0
+        mo.int("rank", min(prev_rank, 3)).put_uint(enc, rank)
+        if rank == 0:
+            mo.int("far").put(enc, k - parent[k])
+        prev_rank = rank
+        p = parent[k]
+        if 0 <= p < k:
+            mo.int("level rel").put(enc, level[k] - level[p])
+        else:
+            mo.int("level abs").put(enc, level[k] - (level[k - 1] if k else 0))
+        mo.int("nseg").put_uint(enc, ch["nseg"][k] - 1)
+
+    prev0 = (0, 0)
+    s0 = 0
+    for k in range(c):
+        chain, n = ch["chains"][k], ch["nseg"][k]
+
+        def pts(i, chain=chain):
+            return chain[i] if i < len(chain) else (0, 0)
+
+        x0, y0 = pts(0)
+        f = anchor_flag(x0, y0, g)
+        if g:
+            put_flag4(enc, mo, 4, f)
+        put_coord(enc, mo.int("p0", 0), mo.int("p0 coarse", 0), f & 1, x0, prev0[0], g)
+        put_coord(enc, mo.int("p0", 1), mo.int("p0 coarse", 1), f & 2, y0, prev0[1], g)
+        prev0 = (x0, y0)
+        prev_b, prev_f, dbk = 2, f, 0
+        for i in range(n):
+            ax, ay = pts(3 * i)
+            nx, ny = pts(3 * i + 3) if i < n - 1 else (x0, y0)
+            b = int(ch["border"][s0 + i]) if s0 + i < len(ch["border"]) else 0
+            enc.bit(mo.bit("border", prev_b), b)
+            prev_b = b
+            if i < n - 1:
+                f = anchor_flag(nx, ny, g)
+                if g:
+                    put_flag4(enc, mo, prev_f, f)
+                prev_f = f
+                put_coord(enc, mo.int("dx", b, dbk), mo.int("dx coarse", b, dbk), f & 1, nx, ax, g)
+                ybk = bucket(nx - ax)
+                put_coord(enc, mo.int("dy", b, ybk), mo.int("dy coarse", b, ybk), f & 2, ny, ay, g)
+            dx, dy = nx - ax, ny - ay
+            db = dbk = bucket(max(abs(dx), abs(dy)))
+            hx = pts(3 * i + 1)[0] - ax - rnd3(dx)
+            hy = pts(3 * i + 1)[1] - ay - rnd3(dy)
+            gx = pts(3 * i + 2)[0] - nx + rnd3(dx)
+            gy = pts(3 * i + 2)[1] - ny + rnd3(dy)
+            mo.int("hx", b, db).put(enc, hx)
+            if b:
+                mo.int("hy", "border").put(enc, hy)
+                mo.int("gx", "border").put(enc, gx)
+                mo.int("gy", "border").put(enc, gy)
+            else:
+                mo.int("hy", bucket(hx), db).put(enc, hy)
+                hb = bucket(max(abs(hx), abs(hy)))
+                mo.int("gx", hb, db).put(enc, gx)
+                mo.int("gy", hb, db).put(enc, gy)
+        s0 += n
+
+    s_p, s_c, s_v = ch["s_p"], ch["s_c"], ch["s_v"]
+    prev_cc = -1
+    for i, cc in enumerate(ch["cap_contour"]):
+        mo.int("cap contour").put(enc, cc - prev_cc)
+        prev_cc = cc
+        ox = oy = vpred = 0
+        if cc >= 0:
+            lev = level[cc] if cc < c else 0
+            rel = ch["cap_band"][i] - lev
+            mo.int("band rel").put(enc, rel)
+            ctx = rel if 0 <= rel <= 1 else 2
+            ox, oy = (v << s_p for v in (ch["chains"][cc][0] if cc < c else (0, 0)))
+            vpred = level_pred(ch["levels"], lev, s_v) if 0 <= lev < len(ch["levels"]) else 0
+        else:
+            mo.int("band root").put(enc, ch["cap_band"][i] - ch["base_band"])
+            ctx = 2
+        half = (1 << s_c) >> 1
+        mo.int("cap xy", 0).put(enc, ch["cap_xy"][i][0] - ((ox + half) >> s_c))
+        mo.int("cap xy", 1).put(enc, ch["cap_xy"][i][1] - ((oy + half) >> s_c))
+        mo.int("cap value", ctx).put(enc, ch["cap_value"][i] - vpred)
+    return enc.finish()
+
+
+class Invalid(Exception):
+    """A decoded value breaks a rule; args: (what, entry)."""
+
+
+def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band) -> dict:
+    """The inverse of encode_channel: a dict of lists, points in 1/64 px as (x, y) tuples per
+    contour with the closing point, caps in 1/64 units. Raises Invalid for a broken rule."""
+    dec, mo = Decoder(data), Models()
+    level, nseg, parent = [], [], []
+    prev_rank = total = 0
+    for j in range(c):
+        rank = mo.int("rank", min(prev_rank, 3)).get_uint(dec)
+        if rank == 0:
+            p = j - mo.int("far").get(dec)
+            if not -1 <= p < c:
+                raise Invalid("parent", j)
+        else:
+            cand = candidates(parent, j)
+            if rank > len(cand):
+                raise Invalid("rank", j)
+            p = cand[rank - 1]
+        parent.append(p)
+        prev_rank = rank
+        if 0 <= p < j:
+            lv = level[p] + mo.int("level rel").get(dec)
+        else:
+            lv = (level[j - 1] if j else 0) + mo.int("level abs").get(dec)
+        if not 0 <= lv < len(levels):
+            raise Invalid("level", j)
+        level.append(lv)
+        n = mo.int("nseg").get_uint(dec) + 1
+        total += n
+        if total > s:
+            raise Invalid("nseg", j)
+        nseg.append(n)
+    if total != s:
+        raise Invalid("nseg short", c)
+
+    lim = LIMIT >> s_p
+    chains, border = [], []
+    prev0 = (0, 0)
+    for j in range(c):
+        n = nseg[j]
+        f = get_flag4(dec, mo, 4) if g else 0
+        x0 = get_coord(dec, mo.int("p0", 0), mo.int("p0 coarse", 0), f & 1, prev0[0], g)
+        y0 = get_coord(dec, mo.int("p0", 1), mo.int("p0 coarse", 1), f & 2, prev0[1], g)
+        if abs(x0) >= lim or abs(y0) >= lim:
+            raise Invalid("point", j)
+        prev0 = (x0, y0)
+        pts = [(x0, y0)]
+        prev_b, prev_f, dbk = 2, f, 0
+        ax, ay = x0, y0
+        for i in range(n):
+            b = dec.bit(mo.bit("border", prev_b))
+            border.append(b)
+            prev_b = b
+            if i < n - 1:
+                f = get_flag4(dec, mo, prev_f) if g else 0
+                prev_f = f
+                nx = get_coord(dec, mo.int("dx", b, dbk), mo.int("dx coarse", b, dbk), f & 1, ax, g)
+                ybk = bucket(nx - ax)
+                ny = get_coord(dec, mo.int("dy", b, ybk), mo.int("dy coarse", b, ybk), f & 2, ay, g)
+                if abs(nx) >= lim or abs(ny) >= lim:
+                    raise Invalid("point", j)
+            else:
+                nx, ny = x0, y0
+            dx, dy = nx - ax, ny - ay
+            db = dbk = bucket(max(abs(dx), abs(dy)))
+            hx = mo.int("hx", b, db).get(dec)
+            if b:
+                hy = mo.int("hy", "border").get(dec)
+                gx = mo.int("gx", "border").get(dec)
+                gy = mo.int("gy", "border").get(dec)
+            else:
+                hy = mo.int("hy", bucket(hx), db).get(dec)
+                hb = bucket(max(abs(hx), abs(hy)))
+                gx = mo.int("gx", hb, db).get(dec)
+                gy = mo.int("gy", hb, db).get(dec)
+            ca = (ax + rnd3(dx) + hx, ay + rnd3(dy) + hy)
+            cb = (nx - rnd3(dx) + gx, ny - rnd3(dy) + gy)
+            if max(abs(ca[0]), abs(ca[1]), abs(cb[0]), abs(cb[1])) >= lim:
+                raise Invalid("point", j)
+            pts += [ca, cb, (nx, ny)]
+            ax, ay = nx, ny
+        chains.append([(x << s_p, y << s_p) for x, y in pts])
+
+    cap_contour, cap_band, cap_xy, cap_value = [], [], [], []
+    prev_cc = -1
+    half = (1 << s_c) >> 1
+    for i in range(k):
+        cc = prev_cc + mo.int("cap contour").get(dec)
+        if not -1 <= cc < c:
+            raise Invalid("cap contour", i)
+        prev_cc = cc
+        ox = oy = vpred = 0
+        if cc >= 0:
+            rel = mo.int("band rel").get(dec)
+            band = level[cc] + rel
+            ctx = rel if 0 <= rel <= 1 else 2
+            ox, oy = chains[cc][0]
+            vpred = level_pred(levels, level[cc], s_v)
+        else:
+            band = base_band + mo.int("band root").get(dec)
+            ctx = 2
+        x = ((ox + half) >> s_c) + mo.int("cap xy", 0).get(dec)
+        y = ((oy + half) >> s_c) + mo.int("cap xy", 1).get(dec)
+        if abs(x << s_c) >= LIMIT or abs(y << s_c) >= LIMIT:
+            raise Invalid("cap xy", i)
+        v = vpred + mo.int("cap value", ctx).get(dec)
+        if abs(v << s_v) >= LIMIT:
+            raise Invalid("cap value", i)
+        cap_contour.append(cc)
+        cap_band.append(band)
+        cap_xy.append((x << s_c, y << s_c))
+        cap_value.append(v << s_v)
+    status = dec.status()
+    if status != "ok":
+        raise Invalid(status, 0)
+    return dict(level=level, nseg=nseg, parent=parent, chains=chains, border=border,
+                cap_contour=cap_contour, cap_band=cap_band, cap_xy=cap_xy, cap_value=cap_value)

@@ -1,0 +1,214 @@
+"""The range coder of .isoph (src/isophote/_kernels/entropy.py) against its plain-Python twin
+(entropy_ref.py): the same bytes and the same decoded values on random inputs, valid or not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import isophote
+from isophote._kernels import entropy as E
+from isophote._kernels import entropy_ref as R
+from isophote.format import isoph
+
+from test_format import random_image, smooth_contour_set
+
+
+# ---- integers --------------------------------------------------------------------------------
+
+
+def ref_ints(values, models, signed) -> bytes:
+    enc, mo = R.Encoder(), {}
+    for v, m in zip(values, models):
+        model = mo.setdefault(m, R.IntModel())
+        (model.put if signed else model.put_uint)(enc, int(v))
+    return enc.finish()
+
+
+def ref_decode_ints(data, models, signed):
+    dec, mo = R.Decoder(data), {}
+    out = []
+    for m in models:
+        model = mo.setdefault(m, R.IntModel())
+        out.append((model.get if signed else model.get_uint)(dec))
+    return out, dec.status()
+
+
+def random_values(rng, n, signed):
+    kind = rng.integers(0, 4)
+    if kind == 0:  # small, skewed: what residuals look like
+        v = np.rint(rng.laplace(0, rng.uniform(0.2, 40), n)).astype(np.int64)
+    elif kind == 1:  # any magnitude up to the limit
+        v = (rng.random(n) * 2.0 ** rng.integers(0, E.KMAX, n)).astype(np.int64)
+        v = np.minimum(v, E.MAX_UINT)
+    elif kind == 2:  # constant runs: probabilities go to their extremes
+        v = np.full(n, int(rng.integers(0, 3)), np.int64)
+    else:
+        v = rng.choice(np.array([0, 1, 2, E.MAX_UINT, E.MAX_UINT - 1, 1 << 20], np.int64), n)
+    if signed:
+        v = np.where(rng.random(n) < 0.5, -np.abs(v), np.abs(v))
+    else:
+        v = np.abs(v)
+    return v
+
+
+@pytest.mark.parametrize("signed", [True, False])
+def test_ints_match_the_reference(signed):
+    rng = np.random.default_rng(1)
+    for trial in range(40):
+        n = int(rng.integers(0, 400))
+        values = random_values(rng, n, signed)
+        models = rng.integers(0, 3, n).astype(np.int64)
+        coded = E.encode_ints(values, models, signed).tobytes()
+        assert coded == ref_ints(values, models, signed), trial
+        back, status = E.decode_ints(np.frombuffer(coded, np.uint8).copy(), models, signed)
+        assert status == E.OK and np.array_equal(back, values)
+        ref_back, ref_status = ref_decode_ints(coded, models.tolist(), signed)
+        assert ref_status == "ok" and ref_back == values.tolist()
+
+
+def test_probabilities_stay_inside_their_range():
+    """After thousands of equal bits, a probability is still strictly inside (0, 1): the
+    opposite bit can always be coded."""
+    values = np.r_[np.zeros(20000, np.int64), [E.MAX_UINT], np.zeros(5, np.int64)]
+    models = np.zeros(values.shape[0], np.int64)
+    coded = E.encode_ints(values, models, False)
+    assert len(coded) < 200
+    back, status = E.decode_ints(coded, models, False)
+    assert status == E.OK and np.array_equal(back, values)
+
+
+def test_ints_decoder_on_garbage_matches_the_reference():
+    """Random bytes decode to the same values in both, and end with the same verdict."""
+    rng = np.random.default_rng(2)
+    for _ in range(100):
+        data = rng.integers(0, 256, int(rng.integers(0, 40)), dtype=np.uint8)
+        models = rng.integers(0, 2, int(rng.integers(0, 30))).astype(np.int64)
+        back, status = E.decode_ints(data, models, True)
+        ref_back, ref_status = ref_decode_ints(data.tobytes(), models.tolist(), True)
+        assert back.tolist() == ref_back
+        assert {E.OK: "ok", E.E_SHORT: "short", E.E_LONG: "long"}[status] == ref_status
+
+
+# ---- channels --------------------------------------------------------------------------------
+
+
+def ref_fields(ch, info) -> dict:
+    """A checked channel (isoph._Checked) as the reference coder's plain fields."""
+    pts = isoph._stored_points(ch) >> info.s_p
+    chains, t = [], 0
+    for n in ch.nseg.tolist():
+        chains.append([tuple(p) for p in pts[t : t + 3 * n].tolist()])
+        t += 3 * n
+    return dict(level=ch.level.tolist(), nseg=ch.nseg.tolist(), parent=ch.parent.tolist(), chains=chains,
+                border=ch.border.astype(int).tolist(), g=info.g, cap_contour=ch.cap_contour.tolist(),
+                cap_band=ch.cap_band.tolist(), cap_xy=[tuple(p) for p in (ch.cq >> info.s_c).tolist()],
+                cap_value=(ch.vq >> info.s_v).tolist(), s_p=info.s_p, s_c=info.s_c, s_v=info.s_v,
+                levels=info.levels.tolist(), base_band=info.base_band)
+
+
+def check_channel(c):
+    """The kernel's bytes are the reference's; both decode them back to the channel."""
+    ch = isoph._checked_channel(c)
+    coded = isoph._range_channel(ch)
+    info = ch.info
+    assert coded == R.encode_channel(ref_fields(ch, info))
+    args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v)
+    ref = R.decode_channel(coded, *args, info.levels.tolist(), info.base_band)
+    out = E.decode_channel(np.frombuffer(coded, np.uint8).copy(), *args, info.levels, info.base_band)
+    assert out[0] == E.OK
+    level, nseg, parent, q, border, cap_contour, cap_band, cq, vq = out[3:]
+    assert level.tolist() == ref["level"] == ch.level.tolist()
+    assert parent.tolist() == ref["parent"] == ch.parent.tolist()
+    assert nseg.tolist() == ref["nseg"] == ch.nseg.tolist()
+    assert np.array_equal(q, ch.q) and [list(p) for chain in ref["chains"] for p in chain] == ch.q.tolist()
+    assert border.astype(bool).tolist() == [bool(b) for b in ref["border"]] == ch.border.tolist()
+    assert cap_contour.tolist() == ref["cap_contour"] and cap_band.tolist() == ref["cap_band"]
+    assert np.array_equal(cq, ch.cq) and [list(p) for p in ref["cap_xy"]] == ch.cq.tolist()
+    assert vq.tolist() == ref["cap_value"] == ch.vq.tolist()
+    return info
+
+
+def test_channels_of_random_images_match_the_reference():
+    for seed in range(12):
+        for c in random_image(seed, "yuv+alpha").channels:
+            check_channel(c)
+
+
+def test_channels_on_coarse_grids_match_the_reference():
+    """Coordinates on coarser grids (shifts > 0) and anchors on a sample grid (g > 0)."""
+    vi = isophote.encode(np.clip(np.add.outer(np.arange(20) * 9.0, np.arange(24) * 4.0)
+                                 + 60 * (np.hypot(*np.mgrid[-10:10, -12:12]) < 6), 0, 255))
+    info = check_channel(vi.channels[0])
+    assert info.g > 0 and info.s_c > 0, (info.g, info.s_c)
+    rng = np.random.default_rng(3)
+    for shift in (1, 3, 6):
+        base = random_image(int(rng.integers(0, 1000)), "grey", n_contours=6).channels[0]
+        from dataclasses import replace
+
+        step = 2.0 ** shift / 64
+        coarse = replace(base, points=np.round(base.points / step) * step,
+                         cap_xy=np.round(base.cap_xy / step) * step, cap_value=np.round(base.cap_value / step) * step)
+        info = check_channel(coarse)
+        assert info.s_p >= shift and info.s_c >= shift and info.s_v >= shift
+
+
+def test_smooth_contours_match_the_reference():
+    check_channel(smooth_contour_set(n=40).channels[0])
+
+
+def decode_both(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band):
+    out = E.decode_channel(np.frombuffer(data, np.uint8).copy(), c, s, k, g, s_p, s_c, s_v,
+                           np.asarray(levels, np.float64), base_band)
+    try:
+        ref = R.decode_channel(data, c, s, k, g, s_p, s_c, s_v, list(levels), base_band)
+    except R.Invalid as e:
+        ref = e.args[0]
+    return out, ref
+
+
+STATUS_NAMES = {E.E_RANK: "rank", E.E_PARENT: "parent", E.E_LEVEL: "level", E.E_NSEG: "nseg",
+                E.E_NSEG_SHORT: "nseg short", E.E_POINT: "point", E.E_CAP_CONTOUR: "cap contour",
+                E.E_CAP_XY: "cap xy", E.E_CAP_VALUE: "cap value", E.E_SHORT: "short", E.E_LONG: "long"}
+
+
+@settings(max_examples=150, deadline=None, derandomize=True, database=None)
+@given(st.binary(max_size=64), st.integers(0, 6), st.integers(0, 12), st.integers(0, 4), st.integers(0, 16),
+       st.integers(0, 6), st.integers(0, 6), st.integers(0, 6), st.integers(0, 4))
+def test_channel_decoder_on_garbage_matches_the_reference(data, c, extra, k, g, s_p, s_c, s_v, n_levels):
+    """Random bytes as a channel: both decoders stop at the same broken rule, or both decode
+    the same arrays."""
+    s = c + extra
+    levels = [10.0 * i for i in range(n_levels)]
+    out, ref = decode_both(data, c, s, k, g, s_p, s_c, s_v, levels, min(1, n_levels))
+    if out[0] != E.OK:
+        assert STATUS_NAMES[out[0]] == ref
+        return
+    assert isinstance(ref, dict)
+    assert out[3].tolist() == ref["level"] and out[5].tolist() == ref["parent"]
+    assert out[6].tolist() == [list(p) for chain in ref["chains"] for p in chain]
+    assert out[8].tolist() == ref["cap_contour"] and out[11].tolist() == ref["cap_value"]
+
+
+def test_mutated_channels_decode_alike():
+    """Real coded channels with a byte changed: the same verdict from both decoders."""
+    vi = isophote.encode(np.clip(np.add.outer(np.arange(12) * 15.0, np.arange(14) * 9.0), 0, 255))
+    ch = isoph._checked_channel(vi.channels[0])
+    coded = isoph._range_channel(ch)
+    info = ch.info
+    rng = np.random.default_rng(4)
+    verdicts = set()
+    for _ in range(60):
+        bad = bytearray(coded)
+        bad[int(rng.integers(0, len(bad)))] = int(rng.integers(0, 256))
+        if rng.random() < 0.3:
+            bad = bad[: int(rng.integers(0, len(bad)))]
+        out, ref = decode_both(bytes(bad), info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p,
+                               info.s_c, info.s_v, info.levels.tolist(), info.base_band)
+        name = STATUS_NAMES.get(out[0], "ok")
+        verdicts.add(name)
+        assert name == (ref if isinstance(ref, str) else "ok")
+    assert len(verdicts) > 2, verdicts
