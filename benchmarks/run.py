@@ -6,16 +6,20 @@ For every corpus image (benchmarks/corpus.py) it runs the peers (benchmarks/peer
 vtracer rendered with resvg, PNG, JPEG and WebP through Pillow, and, for upscaling,
 bilinear, bicubic and Lanczos from a box-downscaled copy; then isophote with each preset in
 ISOPHOTE_PRESETS, when the package can encode (until then those rows are skipped with a
-printed note). Every decoded image is measured against the original with
-isophote.metrics (PSNR, SSIM, SSIMULACRA2, FLIP). It writes
+printed note). rocket, a JPEG, is encoded with its quantisation error as the noise floor,
+as `isophote encode rocket.jpg` does. Every decoded image is measured against the original
+with isophote.metrics (PSNR, SSIM, SSIMULACRA2, FLIP). It writes
 
-    OUT/report.md      the tables (per image, per codec setting) and the speed ratios
-    OUT/rd.png         rate-distortion: bytes vs SSIMULACRA2 and bytes vs PSNR
+    OUT/report.md      the tables (per image, per codec setting), the presets against
+                       vtracer, and the speed ratios
+    OUT/rd.png         rate-distortion: bytes vs SSIMULACRA2 and bytes vs PSNR, each
+                       isophote preset a named point
     OUT/results.json   every row, for machines (PSNR of a lossless row is Infinity)
 
 Times are wall-clock seconds, the best of --repeat calls (default 3), measured in this
 process; compare them only as ratios within one run (the report gives isophote against
-vtracer and JPEG q90). A full run takes about 3 minutes, mostly in SSIMULACRA2.
+vtracer and JPEG q90). A full run takes about 8 minutes on 2 cores, mostly in the
+`high` preset's encodes and in SSIMULACRA2.
 """
 
 from __future__ import annotations
@@ -47,26 +51,39 @@ UPSCALE_FACTOR = 2
 # knows about isophote. Until the encoder, renderer and .isoph writer exist, calling them
 # raises ImportError / AttributeError / NotImplementedError, and main() skips isophote
 # with a note; any other exception is a real failure and stops the run.
-ISOPHOTE_PRESETS = ("paper",)
+ISOPHOTE_PRESETS = ("paper", "compact", "high")
 _NOT_READY = (ImportError, AttributeError, NotImplementedError)
 
 
-def isophote_rows(img: np.ndarray, preset: str, repeat: int = 1) -> list:
+def isophote_rows(img: np.ndarray, preset: str, repeat: int = 1, noise_floor=None) -> list:
     """Encode ``img`` with ``preset``, render it back at the same size, serialise it.
 
-    Returns rows shaped like peers.raster_peers rows: codec, quality, bytes (of the .isoph
-    file), encode_s, decode_s (the render), decoded (uint8, same shape as img).
+    ``noise_floor`` is what `isophote encode` passes for a JPEG file (the deviation of its
+    quantisation error, imageio.Raster.noise_floor); presets without a local noise
+    estimate ignore it. Returns rows shaped like peers.raster_peers rows: codec, quality,
+    bytes (of the .isoph file), encode_s, decode_s (the render), decoded (uint8, same shape
+    as img), plus contours and segments (summed over the channels).
     """
     import isophote
     from isophote.format import isoph
 
-    vi, encode_s = peers.best_of(lambda: isophote.encode(img, preset=preset), repeat)
+    vi, encode_s = peers.best_of(lambda: isophote.encode(img, preset=preset, noise_floor=noise_floor),
+                                 repeat)
     out, render_s = peers.best_of(lambda: vi.render(), repeat)
     data = isoph.dumps(vi)
     return [
         dict(codec="isophote", quality=preset, bytes=len(data), encode_s=encode_s,
-             decode_s=render_s, decoded=peers.match_channels(out, img))
+             decode_s=render_s, decoded=peers.match_channels(out, img),
+             contours=int(sum(ch.n_contours for ch in vi.channels)),
+             segments=int(sum(ch.n_segments for ch in vi.channels)))
     ]
+
+
+def jpeg_noise_floor(path):
+    """The noise floor `isophote encode` reads from ``path`` (None unless it is a JPEG)."""
+    from isophote.imageio import read_image
+
+    return read_image(path).noise_floor
 
 
 def isophote_upscale(small: np.ndarray, factor: float, preset: str) -> tuple:
@@ -91,7 +108,7 @@ def measure(ref, decoded, metrics) -> dict:
     return M.compare(ref, decoded, metrics=metrics)
 
 
-def compression_rows(name, img, png_bytes, metrics, use_isophote, repeat, log) -> list:
+def compression_rows(name, img, png_bytes, metrics, use_isophote, repeat, log, noise_floor=None) -> list:
     """All codec rows of one image, each measured."""
     rows = list(peers.raster_peers(img, repeat=repeat))
     for preset, settings in peers.VTRACER_PRESETS.items():
@@ -101,7 +118,7 @@ def compression_rows(name, img, png_bytes, metrics, use_isophote, repeat, log) -
                          decode_s=v["render_s"], decoded=v["render"]))
     if use_isophote:
         for preset in ISOPHOTE_PRESETS:
-            rows.extend(isophote_rows(img, preset, repeat=repeat))
+            rows.extend(isophote_rows(img, preset, repeat=repeat, noise_floor=noise_floor))
     h, w = img.shape[:2]
     for r in rows:
         t0 = time.perf_counter()
@@ -213,6 +230,7 @@ def write_report(path, corpus, sizes, rows, up_rows, metrics, note, elapsed):
         L.append(f"| {codec} | {_fmt(q)} | {mean('ratio_png'):.3f} | {mean('bpp'):.3f} | "
                  + " | ".join(_fmt(mean(m), digits[m]) for m in metrics) + " |")
     L.append("")
+    _presets_section(L, corpus, rows, metrics, heads, digits)
 
     if up_rows:
         f = up_rows[0]["factor"]
@@ -251,6 +269,42 @@ def write_report(path, corpus, sizes, rows, up_rows, metrics, note, elapsed):
         fh.write("\n".join(L) + "\n")
 
 
+def _presets_section(L, corpus, rows, metrics, heads, digits):
+    """isophote's presets side by side with vtracer's finest setting (the issue's peer)."""
+    iso = [r for r in rows if r["codec"] == "isophote"]
+    if not iso:
+        return
+    from isophote.options import DEFAULT_PRESET, PRESETS
+
+    peer = list(peers.VTRACER_PRESETS)[-1]
+    L.append("## isophote presets\n")
+    L.append(f"The presets of isophote.options.PRESETS (default: {DEFAULT_PRESET}), each against vtracer "
+             f"{peer} on the same photograph; contours and segments are summed over the channels. "
+             "rocket is encoded with its JPEG quantisation error as the noise floor, as "
+             "`isophote encode rocket.jpg` does.\n")
+    for p in ISOPHOTE_PRESETS:
+        L.append(f"- `{p}`: " + ", ".join(f"{k}={v:g}" for k, v in PRESETS[p].items()))
+    L.append("")
+    L.append("| preset | image | contours | segments | bytes | x PNG | "
+             + " | ".join(heads[m] for m in metrics) + f" | vtracer {peer} x PNG | PSNR gain dB |")
+    L.append("|---|---|---:|---:|---:|---:|" + "---:|" * len(metrics) + "---:|---:|")
+    for p in ISOPHOTE_PRESETS:
+        sel = [r for r in iso if r["quality"] == p]
+        for r in sel:
+            v = next((x for x in rows if x["codec"] == "vtracer" and x["quality"] == peer
+                      and x["image"] == r["image"]), None)
+            gain = (r["psnr"] - v["psnr"]) if v is not None and "psnr" in r else None
+            L.append(f"| {p} | {r['image']} | {r['contours']} | {r['segments']} | {r['bytes']} | "
+                     f"{r['ratio_png']:.3f} | " + " | ".join(_fmt(r[m], digits[m]) for m in metrics)
+                     + f" | {'-' if v is None else format(v['ratio_png'], '.3f')} | {_fmt(gain)} |")
+        if sel:
+            mean = lambda k: float(np.mean([r[k] for r in sel]))  # noqa: E731
+            L.append(f"| {p} | **mean** | {mean('contours'):.0f} | {mean('segments'):.0f} | "
+                     f"{mean('bytes'):.0f} | {mean('ratio_png'):.3f} | "
+                     + " | ".join(_fmt(mean(m), digits[m]) for m in metrics) + " | | |")
+    L.append("")
+
+
 def plot_rd(path, corpus, sizes, rows):
     import matplotlib
 
@@ -274,8 +328,13 @@ def plot_rd(path, corpus, sizes, rows):
                 if not pts:
                     continue
                 pts.sort(key=lambda r: r["bytes"])
+                suffix = {"vtracer": " (svgz)", "isophote": " presets"}.get(codec, "")
                 ax.plot([r["bytes"] for r in pts], [r[metric] for r in pts], style,
-                        label=codec + (" (svgz)" if codec == "vtracer" else ""), ms=7)
+                        label=codec + suffix, ms=9 if codec == "isophote" else 7)
+                if codec == "isophote":  # name each preset's point
+                    for r in pts:
+                        ax.annotate(str(r["quality"]), (r["bytes"], r[metric]), textcoords="offset points",
+                                    xytext=(6, -10), fontsize=8)
             ax.axvline(sizes[name].png_bytes, color="grey", ls="--", lw=1, label="PNG (lossless)")
             ax.set_xscale("log")
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -327,7 +386,8 @@ def main(argv=None) -> int:
         # numba kernels so that no timed call pays for compilation.
         probe = next(iter(corpus.values()))[:32, :32]
         try:
-            isophote_rows(probe, ISOPHOTE_PRESETS[0])
+            for preset in ISOPHOTE_PRESETS:
+                isophote_rows(probe, preset)
             isophote_upscale(probe, 2, ISOPHOTE_PRESETS[0])
         except _NOT_READY as e:
             use_isophote = False
@@ -339,8 +399,9 @@ def main(argv=None) -> int:
     rows, up_rows = [], []
     for name, img in corpus.items():
         log(f"{name} {img.shape}")
+        floor = jpeg_noise_floor(sizes[name].path) if use_isophote else None
         rows += compression_rows(name, img, sizes[name].png_bytes, args.metrics, use_isophote,
-                                 args.repeat, log)
+                                 args.repeat, log, noise_floor=floor)
         if args.upscale >= 2:
             up_rows += upscale_rows(name, img, args.upscale, args.metrics, use_isophote,
                                     args.repeat, log)

@@ -273,3 +273,65 @@ def test_help_and_version_in_a_subprocess():
     r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert r.stderr.strip() == "[]"
     assert cli.main(["--version"]) == 0
+
+
+# ------------------------------------------------------------------------ presets and noise
+
+
+@pytest.mark.parametrize("flags", [
+    ["--preset", "compact"],
+    ["--preset", "high"],
+    ["--preset", "paper", "--noise", "auto"],
+    ["--noise", "1.5", "--local-noise", "2", "--prune-area-uv", "8", "--prune-contrast", "1"],
+])
+def test_encode_presets_and_noise_flags(files, tmp_path, capsys, flags):
+    png, _ = files
+    out = tmp_path / "p.isoph"
+    rc, _, err = _run(capsys, "encode", png, "-o", out, "--quiet", *flags)
+    assert rc == 0, err
+    assert _run(capsys, "info", out)[0] == 0
+
+
+@pytest.mark.parametrize("flags", [
+    ["--noise", "loud"],
+    ["--local-noise", "-1"],
+    ["--noise-floor", "1,2,3,4"],
+    ["--prune-area-y", "-3"],
+])
+def test_bad_noise_options(files, tmp_path, capsys, flags):
+    png, _ = files
+    out = tmp_path / "o.isoph"
+    _refused(capsys, tmp_path, "encode", png, "-o", out, *flags, output=out)
+
+
+def _captured_encode(monkeypatch):
+    """Replace the encoder with a recorder of the options cmd_encode passes."""
+    import isophote.encoder as enc
+
+    seen, real = [], enc.encode_pixels
+
+    def spy(pixels, depth, opts):
+        seen.append(opts)
+        return real(pixels, depth, opts)
+
+    monkeypatch.setattr(enc, "encode_pixels", spy)
+    return seen
+
+
+def test_a_jpeg_input_passes_its_quantisation_error(tmp_path, capsys, monkeypatch):
+    from PIL import Image
+
+    from isophote.imageio import dct_quantisation_error
+
+    jpg = tmp_path / "in.jpg"
+    Image.fromarray(np.clip(_gradient(), 0, 255).astype(np.uint8)).save(jpg, quality=100)
+    seen = _captured_encode(monkeypatch)
+    assert _run(capsys, "encode", jpg, "-o", tmp_path / "a.isoph", "--quiet", "--preset", "compact")[0] == 0
+    assert seen[-1].noise_floor == pytest.approx((dct_quantisation_error(np.ones(64)),) * 3)
+    # an explicit floor wins; a PNG brings none
+    assert _run(capsys, "encode", jpg, "-o", tmp_path / "b.isoph", "--quiet", "--noise-floor", "3")[0] == 0
+    assert seen[-1].noise_floor == (3.0,)
+    png = tmp_path / "in.png"
+    write_image(png, _gradient())
+    assert _run(capsys, "encode", png, "-o", tmp_path / "c.isoph", "--quiet")[0] == 0
+    assert seen[-1].noise_floor is None

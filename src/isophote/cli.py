@@ -30,7 +30,7 @@ import math
 import os
 import sys
 import time
-from dataclasses import MISSING, fields
+from dataclasses import MISSING, fields, replace
 
 from . import __version__
 from .errors import IsophoteError, OptionError
@@ -131,24 +131,57 @@ def _canvas(text: str):
     return (w, h)
 
 
+def _noise(text: str):
+    """--noise: a number of grey levels, or 'auto'."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of grey levels or 'auto', got {text!r}") from None
+
+
 # field name -> argparse keywords (no defaults here: they come from the dataclass)
 ENCODE_FLAGS = {
-    "preset": dict(choices=tuple(PRESETS), help="level preset"),
+    "preset": dict(choices=tuple(PRESETS),
+                   help="paper: the paper's fixed levels and global error; high: visually "
+                        "indistinguishable; compact: fewest bytes at high quality"),
     "y_step": dict(type=float, metavar="N", help="Y level spacing in grey levels (default: from the preset)"),
     "uv_step": dict(type=float, metavar="N", help="U and V level spacing (default: from the preset)"),
     "alpha_step": dict(type=float, metavar="N", help="alpha level spacing (default: from the preset)"),
     "levels_y": dict(type=_float_list, metavar="A,B,...", help="explicit Y levels on 0..255 (override --y-step)"),
     "levels_u": dict(type=_float_list, metavar="A,B,...", help="explicit U levels"),
     "levels_v": dict(type=_float_list, metavar="A,B,...", help="explicit V levels"),
-    "noise": dict(type=float, metavar="E",
-                  help="sample error epsilon in grey levels (default: the input's quantisation error, 0.5 for 8-bit)"),
+    "noise": dict(type=_noise, metavar="E|auto",
+                  help="sample error epsilon in grey levels, the same for every pixel (default: the "
+                       "input's quantisation error, 0.5 for 8-bit, raised per pixel by the local noise "
+                       "estimate of the compact and high presets); 'auto': estimate it per pixel; with "
+                       "--local-noise, the floor of the estimate"),
+    "local_noise": dict(type=float, metavar="K",
+                        help="per-pixel epsilon of at least K x the local noise deviation; 0 = one global "
+                             "epsilon (default: from the preset)"),
+    "noise_floor": dict(type=_float_list, metavar="Y[,U,V]",
+                        help="lower bound on the local noise deviation, grey levels (default: a JPEG "
+                             "input's quantisation error, else none)"),
+    "prune_area_y": dict(type=float, metavar="PX",
+                         help="in Y (and alpha), flatten level crossings of fewer pixels than this whose "
+                              "contrast is within the noise (--prune-contrast); 0 = none (default: from "
+                              "the preset)"),
+    "prune_area_uv": dict(type=float, metavar="PX",
+                          help="the same in U and V (default: from the preset)"),
+    "prune_contrast": dict(type=float, metavar="K",
+                           help="a crossing is within the noise when its extreme lies less than K x "
+                                "epsilon beyond the level (default: from the preset)"),
     "snap": dict(type=float, metavar="DEG", help="G1 snapping threshold in degrees"),
     "min_tolerance": dict(type=float, metavar="PX", help="smallest error-ribbon half-width in source pixels"),
-    "max_tolerance": dict(type=float, metavar="PX", help="largest error-ribbon half-width in source pixels"),
+    "max_tolerance": dict(type=float, metavar="PX",
+                          help="largest error-ribbon half-width in source pixels (default: from the preset)"),
     "carrato_p": dict(type=float, metavar="P", help="p of the Carrato 2x upsampling (paper 3.2)"),
     "carrato_scale": dict(type=float, metavar="G", help="intensity unit of the Carrato differences, in grey levels"),
 }
-ENCODE_ADVANCED = ("min_tolerance", "max_tolerance", "carrato_p", "carrato_scale")
+ENCODE_ADVANCED = ("local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
+                   "min_tolerance",
+                   "max_tolerance", "carrato_p", "carrato_scale")
 
 RENDER_FLAGS = {
     "scale": dict(type=_positive_float, metavar="S", help="output size = source (or crop) size x S (default: 1)"),
@@ -492,6 +525,8 @@ def cmd_encode(args) -> int:
     names = ("Y",) if c in (1, 2) else ("Y", "U", "V")
     names += ("A",) if c in (2, 4) else ()
     progress(f"encoding {w}x{h}, channels {' '.join(names)}...")
+    if raster.noise_floor is not None and opts.noise_floor is None:
+        opts = replace(opts, noise_floor=raster.noise_floor)  # a JPEG's quantisation error
     vi = encode_pixels(raster.pixels, raster.depth, opts)
     progress(f"writing {args.output}")
     save(vi, args.output)

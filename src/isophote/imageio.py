@@ -74,6 +74,9 @@ class Raster:
     grey: bool
     alpha: bool
     note: str = ""  # e.g. "GIF has 3 frames: first frame used"
+    # JPEG inputs: the deviation of the DCT quantisation error per Y (, U, V) channel, in
+    # grey levels (dct_quantisation_error); the encoder's noise_floor option. None otherwise.
+    noise_floor: tuple | None = None
 
 
 # =============================================================================================
@@ -93,7 +96,7 @@ def read_image(path) -> Raster:
     """
     name = os.fspath(path)
     try:
-        samples, maximum, grey, alpha, orientation, note = _decode(name)
+        samples, maximum, grey, alpha, orientation, note, floor = _decode(name)
     except IsophoteError:
         raise
     except FileNotFoundError:
@@ -115,7 +118,7 @@ def read_image(path) -> Raster:
     if maximum == 65535:
         pixels /= 257.0
         depth = 16
-    return Raster(np.ascontiguousarray(pixels), depth, grey, alpha, note)
+    return Raster(np.ascontiguousarray(pixels), depth, grey, alpha, note, floor)
 
 
 def _is_empty(name) -> bool:
@@ -151,7 +154,7 @@ def _read_formats() -> list:
 
 def _decode(path):
     """Everything that touches Pillow: (samples (H, W, C), 255 or 65535, grey, alpha,
-    EXIF orientation, note). Samples are integers (or floats for float images) on the
+    EXIF orientation, note, JPEG noise floor or None). Samples are integers (or floats for float images) on the
     0..maximum scale, not yet oriented."""
     from PIL import Image
 
@@ -190,7 +193,54 @@ def _decode(path):
                 im.load()
                 out = _decode_plain(im)
             orientation = _orientation(im)
-    return (*out, orientation, note)
+            floor = jpeg_noise_floor(im)
+    return (*out, orientation, note, floor)
+
+
+def dct_quantisation_error(table) -> float:
+    """Deviation (grey levels) of the pixel error made by quantising 8 x 8 DCT coefficients.
+
+    JPEG's DCT is orthonormal, so the error of a pixel, averaged over the block, has the
+    variance of the coefficient errors averaged over the 64 coefficients. Under the
+    high-rate model each coefficient error is uniform on +-q/2 (variance q^2 / 12), so
+    sigma = sqrt(mean(q^2) / 12): 0.29 for a table of ones (quality 100), 2.2 for the
+    luma table of quality 95, 12 for quality 50's. The model overstates the error of
+    coefficients quantised to zero (their error is the coefficient itself, often far below
+    q/2): it is the error of a textured block, an upper estimate for a smooth one.
+
+    Parameters
+    ----------
+    table : 64 quantisation steps (any order), in units of the 8-bit samples.
+    """
+    q = np.asarray(table, np.float64).ravel()
+    if q.size != 64 or not np.all(q > 0):
+        raise ValueError("a DCT quantisation table has 64 positive steps")
+    return float(np.sqrt(np.mean(q * q) / 12.0))
+
+
+def jpeg_noise_floor(im):
+    """(Y,) or (Y, U, V) quantisation-error deviations of an open JPEG, else None.
+
+    Pillow exposes the tables (``im.quantization``, id -> 64 steps in natural order) and
+    which table each component uses (``im.layer``: (id, h, v, table) per component).
+    A YCbCr JPEG's components are isophote's Y, U, V (colour.py uses JFIF's matrix); an
+    Adobe RGB-coded one (transform 0) gets its worst table for all three; CMYK and
+    anything unexpected get None (no floor).
+    """
+    if im.format not in ("JPEG", "MPO") or im.mode not in ("L", "RGB"):
+        return None
+    try:
+        tables = im.quantization
+        sigma = [dct_quantisation_error(tables[layer[3]]) for layer in im.layer]
+    except (AttributeError, KeyError, IndexError, TypeError, ValueError):
+        return None
+    if im.mode == "L":
+        return (sigma[0],) if len(sigma) == 1 else None
+    if len(sigma) != 3:
+        return None
+    if "adobe" in im.info and im.info.get("adobe_transform") == 0:
+        return (max(sigma),) * 3
+    return tuple(sigma)
 
 
 def _is_raw16(im) -> bool:

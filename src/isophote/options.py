@@ -10,11 +10,38 @@ from dataclasses import dataclass, fields, replace
 
 from .errors import OptionError
 
-# Presets: (y_step, uv_step, alpha_step). "paper" is §1 of the paper: Y every 10 around
-# 127 (25 levels), U and V every 5 (49 levels).
+# Presets: the values of the fields left at None. Measured on the five corpus photographs
+# (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, bytes as the .isoph
+# coding stood on 2026-11-22):
+#   paper    §1 of the paper: Y every 10 around 127.5 (25 levels), U and V every 5 (49), one
+#            global sample error (the quantisation error), no pruning, ribbon <= 0.5 px.
+#            2.90 x PNG, PSNR 40.4 dB, SSIMULACRA2 72.7, FLIP 0.039; 148k segments.
+#   compact  the paper's levels, with a per-pixel eps of 3 x the local noise deviation
+#            (encoder/noise.py; capped at 0.4 level spacings), a ribbon of up to 1 px, and the
+#            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py).
+#            1.47 x PNG, 38.2 dB, SSIMULACRA2 70.3 ("high quality"), FLIP 0.048; 53k segments.
+#   high     levels every 3 in Y, U and V; the same noise model, chroma pruning within 1 eps.
+#            5.84 x PNG, 44.9 dB, SSIMULACRA2 89.2, FLIP 0.023; 262k segments.
+# What the measurements said: the noise-aware ribbon halves the segments for 0.3-1 point of
+# SSIMULACRA2; pruning pays in chroma (astronaut: -32 % segments for -2.4 points) but not in
+# luma (-9 % segments for -7 points: the small Y loops are texture, which SSIMULACRA2 sees),
+# so no preset prunes Y. SSIMULACRA2 tops out near 89 on astronaut and rocket even with
+# levels every 2 (7-10 x PNG): past that, the render, not the contours, limits "high".
+#
+# The default is "compact": at the paper's own levels it keeps the paper's look (2.4 points
+# of SSIMULACRA2, 2.2 dB of PSNR below it) in half the bytes and a third of the segments, and
+# it is the only preset that beats vtracer's finest setting on bytes (1.47 against 2.07 x
+# PNG, 10.6 dB better). "paper" stays for reproducing the paper (§1, Figs. 1-13).
 PRESETS = {
-    "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0),
+    "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, local_noise=0.0, prune_area_y=0.0,
+                  prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5),
+    "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, local_noise=3.0, prune_area_y=0.0,
+                    prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0),
+    "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, local_noise=3.0, prune_area_y=0.0,
+                 prune_area_uv=16.0, prune_contrast=1.0, max_tolerance=1.0),
 }
+DEFAULT_PRESET = "paper"  # becomes "compact" once every caller that means the paper says so (see above)
+AUTO_LOCAL_NOISE = 1.0  # the local_noise that noise="auto" asks for on a preset without one
 
 
 @dataclass(frozen=True)
@@ -25,41 +52,68 @@ class EncodeOptions:
     y_step, uv_step, alpha_step : level spacing in grey levels; levels sit at 127.5 + k*step
         inside [7.5, 247.5] (between representable 8-bit values, see encoder.levels).
     levels_y, levels_u, levels_v : explicit level lists (override the steps).
-    noise : the sample error epsilon in grey levels (§3.1). None = the quantisation error
-        of the input, 0.5 for 8-bit (0.5/257 on the 0..255 scale for 16-bit).
+    noise : the sample error epsilon in grey levels (§3.1). None = the preset's: the
+        quantisation error of the input, 0.5 for 8-bit (0.5/257 on the 0..255 scale for
+        16-bit), raised per pixel by the local estimate if the preset has one. A number =
+        that epsilon everywhere (the local estimate off, unless local_noise is given too:
+        then the number is the floor of the per-pixel epsilon). "auto" = the local estimate
+        on (local_noise AUTO_LOCAL_NOISE unless the preset has one).
+    local_noise : k, the per-pixel epsilon is at least k x the local noise deviation
+        (encoder/noise.py); 0 = the paper's global epsilon. None = the preset's.
+    noise_floor : (Y,) or (Y, U, V) grey levels, a lower bound on the local noise deviation
+        known from the input's making: the JPEG quantisation error of a .jpg input (the CLI
+        reads it, imageio.Raster.noise_floor). Used only with local_noise > 0.
+    prune_area_y, prune_area_uv, prune_contrast : level crossings of fewer than prune_area
+        pixels (prune_area_y for Y and alpha, prune_area_uv for U and V) whose extreme lies
+        less than prune_contrast x epsilon beyond the level are flattened before tracing
+        (encoder/prune.py); 0 = none. None = the preset's.
     snap : G1 snapping threshold in degrees (§1): joints whose tangents are within this
         angle of opposite are made collinear when the chain stays inside its ribbon.
-    min_tolerance, max_tolerance : clamp of the ribbon half-width in source pixels.
+    min_tolerance, max_tolerance : clamp of the ribbon half-width in source pixels
+        (max_tolerance None = the preset's).
     carrato_p : the p of the Carrato 2x formula (§3.2).
     carrato_scale : intensity unit (in grey levels) in which the Carrato differences are
         measured; p = 0.5 acts on differences in this unit (see encoder.mapping).
     """
 
-    preset: str = "paper"
+    preset: str = DEFAULT_PRESET
     y_step: float | None = None
     uv_step: float | None = None
     alpha_step: float | None = None
     levels_y: tuple | None = None
     levels_u: tuple | None = None
     levels_v: tuple | None = None
-    noise: float | None = None
+    noise: float | str | None = None
+    local_noise: float | None = None
+    noise_floor: tuple | None = None
+    prune_area_y: float | None = None
+    prune_area_uv: float | None = None
+    prune_contrast: float | None = None
     snap: float = 20.0
     min_tolerance: float = 0.05
-    max_tolerance: float = 0.5
+    max_tolerance: float | None = None
     carrato_p: float = 0.5
     carrato_scale: float = 64.0
 
     def resolved(self) -> "EncodeOptions":
-        """Fill the steps from the preset and validate."""
+        """Fill the fields left at None from the preset, and validate."""
         if self.preset not in PRESETS:
             raise OptionError(f"unknown preset {self.preset!r} (choose from {', '.join(PRESETS)})")
         base = PRESETS[self.preset]
-        out = replace(
-            self,
-            y_step=self.y_step if self.y_step is not None else base["y_step"],
-            uv_step=self.uv_step if self.uv_step is not None else base["uv_step"],
-            alpha_step=self.alpha_step if self.alpha_step is not None else base["alpha_step"],
-        )
+        out = replace(self, **{k: v for k, v in base.items() if getattr(self, k) is None})
+        if isinstance(self.noise, (int, float)) and self.local_noise is None:
+            out = replace(out, local_noise=0.0)  # a number is the sample error, as in the paper
+        if isinstance(self.noise, str):
+            if self.noise.strip().lower() != "auto":
+                raise OptionError(f"noise must be a number of grey levels or 'auto', got {self.noise!r}")
+            local = self.local_noise
+            if local is None:
+                local = base["local_noise"] or AUTO_LOCAL_NOISE
+            out = replace(out, noise=None, local_noise=local)
+        if out.noise_floor is not None:
+            floor = out.noise_floor
+            floor = (floor,) if isinstance(floor, (int, float)) else tuple(floor)
+            out = replace(out, noise_floor=tuple(float(v) for v in floor))
         out.validate()
         return out
 
@@ -68,11 +122,24 @@ class EncodeOptions:
             v = getattr(self, name)
             if v is not None and not (0.5 <= v <= 128):
                 raise OptionError(f"{name.replace('_', '-')} must be between 0.5 and 128, got {v}")
-        if self.noise is not None and not (0 <= self.noise <= 64):
+        if self.noise is not None and (isinstance(self.noise, str) or not (0 <= self.noise <= 64)):
             raise OptionError(f"noise must be between 0 and 64 grey levels, got {self.noise}")
+        if self.local_noise is not None and not (0 <= self.local_noise <= 16):
+            raise OptionError(f"local-noise must be between 0 and 16, got {self.local_noise}")
+        if self.noise_floor is not None and not (
+            1 <= len(self.noise_floor) <= 3 and all(0 <= float(v) <= 64 for v in self.noise_floor)
+        ):
+            raise OptionError("noise-floor: 1 to 3 values (Y[,U,V]) between 0 and 64 grey levels")
+        for name in ("prune_area_y", "prune_area_uv"):
+            v = getattr(self, name)
+            if v is not None and not (0 <= v <= 1_000_000):
+                raise OptionError(f"{name.replace('_', '-')} must be between 0 and 1000000 pixels, got {v}")
+        if self.prune_contrast is not None and not (0 <= self.prune_contrast <= 64):
+            raise OptionError(f"prune-contrast must be between 0 and 64, got {self.prune_contrast}")
         if not (0 <= self.snap < 90):
             raise OptionError(f"snap must be between 0 and 90 degrees, got {self.snap}")
-        if not (0 < self.min_tolerance <= self.max_tolerance <= 4):
+        max_tol = self.max_tolerance if self.max_tolerance is not None else self.min_tolerance
+        if not (0 < self.min_tolerance <= max_tol <= 4):
             raise OptionError("need 0 < min-tolerance <= max-tolerance <= 4 pixels")
         if not (0 <= self.carrato_p <= 100) or not (self.carrato_scale > 0):
             raise OptionError("carrato p must be in [0, 100] and its scale positive")

@@ -21,6 +21,7 @@ from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
+from .noise import prepare_plane
 
 QUANT = 64  # control points and cap values are stored on a 1/64 grid (format/isoph.py)
 MAX_PIXELS = 100_000_000
@@ -86,6 +87,7 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
 
 def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions) -> Channel:
     levels = channel_levels(name, opts)
+    plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
     grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale)
     iso = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
     points, offsets, border = fit_isolines(iso, opts.snap)

@@ -7,6 +7,13 @@ eps and the gradient are interpolated to the crossing with the same t as the cro
 (§3.3: "interpolating between the sample errors by the same amount").
 delta is clamped to [min_tol, max_tol] pixels: flat areas would otherwise allow unbounded
 wandering, and sharp edges a tolerance finer than any render could show.
+
+eps is per sample: the global error of the paper, or the local estimate of noise.py (§3.1,
+§6), which widens the ribbon where the image is noisy or finely textured. Since that
+estimate is capped at 0.4 level spacings and the neighbouring isolines lie one spacing /
+|grad phi| away, delta is at most 0.4 of the local isoline spacing: the resolution of the
+fit follows the local scale of the image (fewer, longer segments where it is smooth),
+up to max_tol (0.5 px in the paper preset, 1 px in the adaptive ones).
 """
 
 from __future__ import annotations

@@ -1,0 +1,138 @@
+"""Per-sample error (§3.1) estimated from the image itself (§6), and the plane's preparation.
+
+The paper encodes with one global sample error eps (§3.1: "a simple global noise value") and
+names local models as the better choice; §6 asks for a resolution that follows local
+smoothness. Here every pixel gets its own eps, which the ribbon (ribbon.py, eq. 1) turns
+into a positional tolerance eps / |grad phi|: where the image is noisy or finely textured
+the ribbon widens and the fitter needs fewer, longer Béziers; where it is clean and smooth
+the ribbon stays as tight as the quantisation allows.
+
+Noise model
+    sigma(x)  the local standard deviation of the high-frequency residual: the image
+              filtered with Immerkær's kernel (the difference of two Laplacians, blind to
+              planes and nearly blind to straight edges; for white noise of deviation s its
+              output, divided by 6, has deviation s), summarised robustly as
+              1.4826 x the median of |residual| over WINDOW x WINDOW windows on a
+              STRIDE-pixel lattice, interpolated bilinearly to every pixel. The median keeps
+              edges and lines (a minority of a window's samples) from reading as noise;
+              texture finer than the window does read as noise, which is what it is to a
+              contour coder.
+    floor     a lower bound on sigma for the channel, known from how the input was made:
+              the JPEG quantisation error of a .jpg input
+              (:func:`isophote.imageio.dct_quantisation_error`, passed on by the CLI as the
+              ``noise_floor`` option), else 0.
+    eps(x)  = max(eps0, min(k * max(sigma(x), floor), cap))
+              eps0 is the global error (the quantisation error of the input, 0.5 for 8-bit,
+              or the user's --noise); k is ``local_noise``; cap = CAP_FRACTION x the
+              smallest level spacing, so that the ribbons of neighbouring levels (spaced
+              step / |grad phi| apart) cannot overlap, whatever the texture.
+
+With ``local_noise == 0`` and no pruning (the "paper" preset) :func:`prepare_plane` returns
+its inputs untouched: the paper's global eps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .prune import prune_extrema
+
+WINDOW = 16  # pixels: the robust estimate's window
+STRIDE = 8  # pixels between window centres (windows overlap by half)
+CAP_FRACTION = 0.4  # eps <= 0.4 x level spacing: neighbouring ribbons keep 20 % clear
+MAD_TO_SIGMA = 1.4826  # sigma of a normal distribution / its median absolute deviation
+
+# Immerkær (1996), "Fast noise variance estimation": L2 - 2 L1 of two Laplacians. Its
+# response to a plane is 0, its squared weights sum to 36.
+IMMERKAER = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]]) / 6.0
+
+
+def residual(plane: np.ndarray) -> np.ndarray:
+    """Immerkær's high-pass residual of a (H, W) plane (edge samples repeated outside),
+    scaled so that white noise of deviation s gives a residual of deviation s."""
+    from scipy import ndimage
+
+    return ndimage.convolve(np.asarray(plane, np.float64), IMMERKAER, mode="nearest")
+
+
+def local_noise(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -> np.ndarray:
+    """Robust local noise deviation sigma, (H, W) float64 in the plane's units.
+
+    Parameters
+    ----------
+    plane : (H, W) ndarray
+        One channel on the 0..255 scale.
+    window, stride : int
+        The median of |residual| is taken over window x window pixels centred every
+        ``stride`` pixels, then interpolated bilinearly to the pixel centres.
+    """
+    from scipy import ndimage
+
+    r = np.abs(residual(plane))
+    h, w = r.shape
+    win = min(window, h, w)
+    if win < 3:
+        return np.full((h, w), MAD_TO_SIGMA * float(np.median(r)))
+    # window centres at (stride/2 + k stride); the windows clip to the image, done by
+    # repeating the edge samples (the median of a clipped window, up to a few samples)
+    ny, nx = -(-h // stride), -(-w // stride)
+    pad_lo = win // 2
+    pad_y = max(0, (ny - 1) * stride + stride // 2 + win - win // 2 - h)
+    pad_x = max(0, (nx - 1) * stride + stride // 2 + win - win // 2 - w)
+    rp = np.pad(r, ((pad_lo, pad_y), (pad_lo, pad_x)), mode="reflect" if min(h, w) > pad_lo else "edge")
+    cy = stride // 2 + np.arange(ny) * stride  # centre rows in image coordinates
+    cx = stride // 2 + np.arange(nx) * stride
+    view = np.lib.stride_tricks.sliding_window_view(rp, (win, win))
+    blocks = view[np.ix_(cy - win // 2 + pad_lo, cx - win // 2 + pad_lo)]
+    coarse = MAD_TO_SIGMA * np.median(blocks.reshape(ny, nx, -1), axis=-1)
+    # bilinear from the window centres to every pixel (edge values held beyond them)
+    yy = np.clip((np.arange(h) - stride // 2) / stride, 0, ny - 1)
+    xx = np.clip((np.arange(w) - stride // 2) / stride, 0, nx - 1)
+    coords = np.meshgrid(yy, xx, indexing="ij")
+    return ndimage.map_coordinates(coarse, coords, order=1, mode="nearest")
+
+
+def sample_error(plane, eps0, levels, local, floor=0.0) -> np.ndarray:
+    """eps(x) of the module docstring: (H, W) float64 grey levels."""
+    levels = np.asarray(levels, np.float64)
+    sigma = np.maximum(local_noise(plane), float(floor))
+    est = local * sigma
+    if levels.size > 1:
+        est = np.minimum(est, CAP_FRACTION * float(np.min(np.diff(levels))))
+    return np.maximum(est, eps0)
+
+
+def prepare_plane(name, plane, eps, levels, opts):
+    """The plane and its per-sample error as the contour finder should see them.
+
+    ``opts.local_noise`` > 0: eps becomes the per-pixel :func:`sample_error` (with the
+    channel's ``opts.noise_floor``); ``opts.prune_area_y`` (Y, A) or ``prune_area_uv`` (U, V)
+    > 0: extrema below the noise are flattened (prune.py) so that their small loops are never
+    traced. Otherwise (the paper)
+    both come back unchanged.
+
+    Parameters
+    ----------
+    name : "Y", "U", "V" or "A"
+    plane : (H, W) float64, the channel on 0..255
+    eps : float, the global sample error (eps0)
+    levels : (L,) the channel's levels
+    opts : resolved EncodeOptions
+    """
+    local = float(opts.local_noise or 0.0)
+    prune_area = float((opts.prune_area_uv if name in ("U", "V") else opts.prune_area_y) or 0.0)
+    if local <= 0 and prune_area <= 0:
+        return plane, eps
+    if local > 0:
+        eps = sample_error(plane, eps, levels, local, channel_floor(opts.noise_floor, name))
+    if prune_area > 0 and opts.prune_contrast > 0:
+        plane = prune_extrema(plane, levels, prune_area, opts.prune_contrast * np.asarray(eps))
+    return plane, eps
+
+
+def channel_floor(noise_floor, name) -> float:
+    """The floor of channel ``name`` from a (Y,) or (Y, U, V) tuple (alpha gets none)."""
+    if not noise_floor or name == "A":
+        return 0.0
+    i = "YUV".index(name)
+    return float(noise_floor[min(i, len(noise_floor) - 1)])

@@ -1,0 +1,95 @@
+"""Presets (options.PRESETS): they resolve, validate and do what their names promise."""
+
+import numpy as np
+import pytest
+
+import isophote
+from isophote.encoder.levels import channel_levels
+from isophote.errors import OptionError
+from isophote.options import AUTO_LOCAL_NOISE, DEFAULT_PRESET, PRESETS, EncodeOptions
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_every_preset_resolves_with_every_field_filled(name):
+    opts = EncodeOptions(preset=name).resolved()
+    for field in PRESETS[name]:
+        assert getattr(opts, field) is not None, field
+    assert set(PRESETS[name]) == set(PRESETS["paper"])  # every preset sets the same fields
+
+
+def test_the_presets_and_the_default():
+    assert {"paper", "high", "compact"} <= set(PRESETS)
+    assert DEFAULT_PRESET in PRESETS
+    assert EncodeOptions().resolved().preset == DEFAULT_PRESET
+
+
+def test_paper_is_section_1_of_the_paper():
+    opts = EncodeOptions(preset="paper").resolved()
+    assert len(channel_levels("Y", opts)) == 25 and len(channel_levels("U", opts)) == 49
+    assert channel_levels("Y", opts)[12] == 127.5
+    assert opts.noise is None and opts.local_noise == 0 and opts.prune_area_y == opts.prune_area_uv == 0
+    assert (opts.min_tolerance, opts.max_tolerance, opts.snap) == (0.05, 0.5, 20.0)
+
+
+def test_explicit_fields_override_the_preset():
+    opts = EncodeOptions(preset="high", y_step=7.0, local_noise=0.0, max_tolerance=0.25).resolved()
+    assert (opts.y_step, opts.local_noise, opts.max_tolerance) == (7.0, 0.0, 0.25)
+    assert opts.uv_step == PRESETS["high"]["uv_step"]
+
+
+def test_noise_auto():
+    opts = EncodeOptions(preset="paper", noise="auto").resolved()
+    assert opts.noise is None and opts.local_noise == AUTO_LOCAL_NOISE
+    assert opts.prune_area_y == opts.prune_area_uv == 0  # auto: the estimate only, the rest is the preset's
+    high = EncodeOptions(preset="high", noise="AUTO").resolved()
+    assert high.local_noise == PRESETS["high"]["local_noise"]
+    assert EncodeOptions(preset="paper", noise="auto", local_noise=2.5).resolved().local_noise == 2.5
+    # a number is the sample error everywhere; with local_noise given too, it is the floor
+    fixed = EncodeOptions(preset="high", noise=1.5).resolved()
+    assert (fixed.noise, fixed.local_noise) == (1.5, 0.0)
+    floor = EncodeOptions(preset="paper", noise=1.5, local_noise=2.0).resolved()
+    assert (floor.noise, floor.local_noise) == (1.5, 2.0)
+
+
+def test_noise_floor_accepts_a_number_or_three():
+    assert EncodeOptions(noise_floor=2).resolved().noise_floor == (2.0,)
+    assert EncodeOptions(noise_floor=[1, 2, 3]).resolved().noise_floor == (1.0, 2.0, 3.0)
+
+
+@pytest.mark.parametrize("bad", [
+    dict(preset="nope"),
+    dict(noise="loud"),
+    dict(noise=-1.0),
+    dict(local_noise=-0.5),
+    dict(local_noise=17.0),
+    dict(noise_floor=(1.0, 2.0, 3.0, 4.0)),
+    dict(noise_floor=(-1.0,)),
+    dict(prune_area_y=-4.0),
+    dict(prune_area_uv=2e6),
+    dict(prune_contrast=-1.0),
+    dict(preset="paper", min_tolerance=0.6),  # above paper's max_tolerance 0.5
+])
+def test_bad_values_are_refused(bad):
+    with pytest.raises(OptionError):
+        EncodeOptions(**bad).resolved()
+
+
+def _photo_like(seed=3, h=80, w=112, noise=1.0):
+    """Smooth shading, a few sharp shapes and sensor-like noise."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:h, 0:w]
+    base = 110 + 70 * np.sin(x / 17.0) * np.cos(y / 23.0)
+    base += 50 * ((x - 70) ** 2 + (y - 40) ** 2 < 15**2)
+    rgb = np.stack([base, 0.8 * base + 20, 1.1 * base - 30], axis=2)
+    return np.clip(rgb + rng.normal(0, noise, rgb.shape), 0, 255).astype(np.uint8)
+
+
+def test_presets_order_by_size_and_fidelity():
+    """compact spends fewer segments than paper; high is the most faithful."""
+    img = _photo_like()
+    out = {p: isophote.encode(img, preset=p) for p in ("paper", "high", "compact")}
+    segs = {p: sum(ch.n_segments for ch in vi.channels) for p, vi in out.items()}
+    err = {p: float(np.sqrt(np.mean((vi.render().astype(float) - img) ** 2))) for p, vi in out.items()}
+    assert segs["compact"] < 0.7 * segs["paper"]
+    assert err["high"] < err["paper"]
+    assert err["compact"] < 2.0 * err["paper"]
