@@ -587,3 +587,98 @@ def test_input_depths_are_scaled():
     c = isophote.encode(mask)
     d = isophote.encode(mask.astype(np.uint8) * 255)
     assert c.channels[0].equals(d.channels[0])
+
+
+# ---------------------------------------------------------------------------------------
+# compiled stages against their plain twins (issue 6: the encoder's speed)
+# ---------------------------------------------------------------------------------------
+
+
+def test_map_pixels_matches_its_numpy_twin():
+    from isophote.encoder.mapping import map_pixels_ref
+
+    rng = np.random.default_rng(11)
+    for k in range(40):
+        h, w = rng.integers(1, 25, size=2)
+        v = rng.uniform(0, 255, (h, w)) if k % 3 else np.round(rng.uniform(0, 4, (h, w))) * 64.0
+        eps = 0.5 if k % 2 else rng.uniform(0, 3, (h, w))
+        p, scale = (0.5, 64.0) if k % 4 else (rng.uniform(0, 2), rng.uniform(1, 128))
+        for a, b in zip(map_pixels(v, eps, p, scale), map_pixels_ref(v, eps, p, scale)):
+            assert a.shape == b.shape == (2 * h + 1, 2 * w + 1)
+            assert a.tobytes() == b.tobytes()  # equal to the bit, signed zeros included
+
+
+def _fit_isolines_ref(iso, snap):
+    """Plain twin of encoder.fit_isolines: every loop on its own, border runs in a Python
+    loop (the implementation the vectorised one replaced)."""
+    from isophote.encoder import _ROUNDING
+    from isophote.encoder.fit import fit_polyline
+
+    tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
+    chains, borders = [], []
+    for i in range(iso.n_loops):
+        o0, o1 = iso.offsets[i], iso.offsets[i + 1]
+        pts, brd, tl = iso.points[o0:o1], iso.border[o0:o1], tol[o0:o1]
+        n = len(pts)
+        if not brd.any():
+            ch = fit_polyline(pts, tl, True, snap)
+            chains.append(ch)
+            borders.append(np.zeros((len(ch) - 1) // 3, bool))
+            continue
+        k0 = int(np.flatnonzero(~brd & np.roll(brd, 1))[0])
+        idx = (np.arange(n + 1) + k0) % n
+        segb = brd[idx[:-1]]
+        parts, flags = [], []
+        start = 0
+        while start < n:
+            stop = start
+            while stop < n and segb[stop] == segb[start]:
+                stop += 1
+            run = idx[start : stop + 1]
+            if segb[start]:
+                p = pts[run]
+                p = p[np.concatenate([[True], np.any(p[1:] != p[:-1], axis=1)])]
+                if len(p) >= 3:
+                    d = np.diff(p, axis=0)
+                    turn = np.abs(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]) > 1e-12
+                    p = p[np.concatenate([[True], turn, [True]])]
+                out = [p[0]]
+                for a, b in zip(p[:-1], p[1:]):
+                    if not np.array_equal(a, b):
+                        out += [a + (b - a) / 3.0, a + 2.0 * (b - a) / 3.0, b]
+                ch = np.asarray(out)
+                if len(ch) > 1:
+                    parts.append(ch[1:] if parts else ch)
+                    flags.append(np.ones((len(ch) - 1) // 3, bool))
+            else:
+                ch = fit_polyline(pts[run], tl[run], False, snap)
+                parts.append(ch[1:] if parts else ch)
+                flags.append(np.zeros((len(ch) - 1) // 3, bool))
+            start = stop
+        ch = np.vstack(parts)
+        ch[-1] = ch[0]
+        chains.append(ch)
+        borders.append(np.concatenate(flags))
+    offsets = np.concatenate([[0], np.cumsum([len(c) for c in chains])]).astype(np.int64)
+    points = np.vstack(chains) if chains else np.zeros((0, 2))
+    border = np.concatenate(borders) if borders else np.zeros(0, bool)
+    return points, offsets, border
+
+
+@pytest.mark.parametrize("which", ["astronaut", "camera", "noise", "ramp"])
+def test_fit_isolines_matches_its_plain_twin(which):
+    from isophote.encoder import fit_isolines
+
+    rng = np.random.default_rng(3)
+    img = {
+        "astronaut": rgb_to_yuv(skimage.data.astronaut()[150:214, 190:250].astype(float))[..., 1],
+        "camera": skimage.data.camera()[300:370, 0:64].astype(float),
+        "noise": rng.uniform(0, 255, (23, 31)),
+        "ramp": np.tile(np.linspace(0, 255, 40), (12, 1)),
+    }[which]
+    iso = isolines_of(img, preset_levels(10 if which != "astronaut" else 5))
+    assert iso.border.any() and iso.n_loops > 3
+    fast = fit_isolines(iso, 20.0)
+    ref = _fit_isolines_ref(iso, 20.0)
+    for a, b in zip(fast, ref):
+        assert a.shape == b.shape and np.array_equal(a, b)

@@ -317,6 +317,28 @@ def test_deterministic():
         assert fit_polyline(p, t, c).tobytes() == fit_polyline(p.copy(), t.copy(), c).tobytes()
 
 
+@pytest.mark.parametrize("workers", [1, 2, 3, 8])
+def test_fit_many_same_bytes_on_any_number_of_threads(monkeypatch, workers):
+    """Large batches are fitted in groups on threads; the output does not depend on them."""
+    import isophote.encoder.fit as fit_mod
+
+    polys = random_batch(6, 200)
+    pts = np.concatenate([p for p, _, _ in polys])
+    tol = np.concatenate([t for _, t, _ in polys])
+    offsets = np.concatenate([[0], np.cumsum([len(p) for p, _, _ in polys])])
+    closed = np.array([c for _, _, c in polys])
+    monkeypatch.setattr(fit_mod, "PARALLEL_POINTS", len(pts) + 1)
+    serial = fit_many(pts, tol, offsets, closed)
+    monkeypatch.setattr(fit_mod, "PARALLEL_POINTS", 0)
+    monkeypatch.setattr(fit_mod, "_workers", lambda: workers)
+    chains, co = fit_many(pts, tol, offsets, closed)
+    assert chains.tobytes() == serial[0].tobytes() and np.array_equal(co, serial[1])
+    assert co.dtype == np.int64
+    for k in (0, 57, 199):
+        p, t, c = polys[k]
+        assert np.array_equal(chains[co[k] : co[k + 1]], fit_polyline(p, t, c))
+
+
 @pytest.mark.parametrize("snap", [0.0, 20.0])
 def test_kernel_matches_reference(snap):
     cos_snap = math.cos(math.radians(snap)) if snap > 0 else 1.0

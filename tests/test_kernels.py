@@ -1,5 +1,6 @@
 """Each numba kernel against its plain NumPy (or Python) twin on seeded random inputs
-(STYLE.md item 8): marching squares, region labelling, innermost enclosing loop,
+(STYLE.md item 8): marching squares (alone and fused with linking), bands, region labelling,
+region levels and cap sums, innermost enclosing loop (by rays and by rows), row bucketing,
 scanline rasterisation and distance propagation."""
 
 from __future__ import annotations
@@ -11,11 +12,17 @@ from isophote._kernels.diffuse import seed as seed_fields
 from isophote._kernels.diffuse import (
     D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, offsets, propagate, propagate_ref,
 )
-from isophote._kernels.enclose import innermost_enclosing, innermost_enclosing_ref
-from isophote._kernels.marching import link_loops, march, march_ref
+from isophote._kernels.enclose import (
+    bucket_rows, innermost_enclosing, innermost_enclosing_ref, innermost_enclosing_rows,
+)
+from isophote._kernels.marching import march, march_loops, march_loops_ref, march_ref
 from isophote._kernels.raster import rasterise, rasterise_ref
-from isophote._kernels.regions import label_regions, label_regions_ref
+from isophote._kernels.regions import (
+    cap_sums, cap_sums_ref, label_regions, label_regions_ref, region_levels, region_levels_ref,
+)
 from isophote.encoder.isolines import pad_grid
+from isophote.encoder.levels import bands
+from isophote.encoder.ribbon import gradient_magnitude
 
 SEEDS = range(6)
 
@@ -108,10 +115,47 @@ def test_march_matches_its_twin(seed, quantised):
     r = np.argsort(ref["skey"])
     for k in SEG_KEYS:
         assert np.array_equal(fast[k][f], ref[k][r]), k
-    # and the segments close into loops
-    order, offs = link_loops(fast["skey"], fast["ekey"])
-    assert len(order) == len(fast["skey"]) and offs[-1] == len(order)
-    assert np.array_equal(np.sort(order), np.arange(len(order)))
+    # and every crossing ends exactly one segment: the segments close into loops
+    assert np.array_equal(np.sort(fast["ekey"]), np.sort(fast["skey"]))
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])
+def test_march_loops_matches_its_twin(seed, quantised):
+    """Marching, linking and the per-point gathers in one kernel = march_ref, a plain walk
+    and NumPy gathers, array for array (loops in the same order, from the same point)."""
+    rng = np.random.default_rng(50 + seed)
+    vals, band, levels = random_grid(rng, quantised)
+    grid = vals[1:-1, 1:-1].copy()
+    grid_eps = rng.uniform(0.1, 2.0, grid.shape)
+    fast = march_loops(vals, band, levels, grid, grid_eps)
+    ref = march_loops_ref(vals, band, levels, grid, grid_eps)
+    assert fast[0] and len(fast[1]) == len(ref[1]) > 0
+    for k, (a, b) in enumerate(zip(fast, ref)):
+        assert np.array_equal(np.asarray(a), np.asarray(b)), k
+    # the gradient gathered is encoder/ribbon.py's
+    g = gradient_magnitude(grid)
+    g_p = np.zeros(vals.shape)
+    g_p[1:-1, 1:-1] = g
+    assert np.array_equal(fast[8], g_p.ravel()[fast[3]])
+    assert np.array_equal(fast[9], g_p.ravel()[fast[4]])
+
+
+@pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])
+def test_pad_grid_bands_are_searchsorted(quantised):
+    rng = np.random.default_rng(7)
+    grid = rng.uniform(0, 255, (9, 13))
+    levels = np.sort(rng.uniform(5, 250, 7))
+    if quantised:
+        grid = np.round(grid / 10) * 10
+        levels = np.arange(10.0, 250.0, 20.0)
+    vals, band = pad_grid(grid, levels)
+    assert band.dtype == np.int16 and vals.shape == band.shape == (11, 15)
+    assert np.array_equal(band[1:-1, 1:-1], bands(grid, levels))
+    assert np.array_equal(vals[1:-1, 1:-1], grid)
+    inner = np.zeros(band.shape, bool)
+    inner[1:-1, 1:-1] = True
+    assert not band[~inner].any() and not vals[~inner].any()
 
 
 # ---------------------------------------------------------------------------------------
@@ -145,6 +189,47 @@ def test_label_regions_saddle_follows_the_decider():
             lab, _ = fn(vals, band.astype(np.int64), levels)
             assert (lab[1, 1] == lab[2, 2]) == joined
             assert lab[1, 2] != lab[2, 1] if joined else lab[1, 2] == lab[2, 1]
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_region_levels_and_cap_sums_match_their_twins(seed):
+    rng = np.random.default_rng(300 + seed)
+    vals, band, levels = random_grid(rng, seed % 2 == 1)
+    labels, m = label_regions(vals, band.astype(np.int64), levels)
+    hp, wp = vals.shape
+    inner = np.flatnonzero(np.pad(np.ones((hp - 2, wp - 2), bool), 1).ravel())
+    n = 200
+    below = rng.choice(hp * wp, n)
+    above = rng.choice(inner, n)
+    lev_seg = rng.integers(0, len(levels), n).astype(np.int64)
+    lev_seg[:50] = band.ravel()[above[:50]] - 1  # crossings that do touch the above region
+    lev_seg = np.maximum(lev_seg, 0)
+    lo, hi = region_levels(labels, band, above, below, lev_seg, m)
+    lo_r, hi_r = region_levels_ref(labels, band, above, below, lev_seg, m)
+    assert np.array_equal(lo, lo_r) and np.array_equal(hi, hi_r) and (hi >= 0).any()
+    for ramp in (0.5, 2.0, 3.7):
+        want = rng.random(m) < 0.6
+        L = rng.uniform(0, 255, m)
+        num, den, has_edge = cap_sums(labels, vals, want, L, ramp)
+        num_r, den_r, has_edge_r = cap_sums_ref(labels, vals, want, L, ramp)
+        assert has_edge == has_edge_r
+        assert np.array_equal(num[want], num_r[want]) and np.array_equal(den[want], den_r[want])
+
+
+def test_cap_sums_far_from_edges_and_without_edges():
+    """Wide regions (samples far beyond the search window) and a single region."""
+    labels = np.zeros((42, 42), np.int64)
+    labels[1:-1, 1:21] = 1
+    labels[1:-1, 21:-1] = 2
+    labels[0, :], labels[-1, :], labels[:, 0], labels[:, -1] = 3, 4, 5, 6
+    vals = np.random.default_rng(1).uniform(0, 255, labels.shape)
+    want = np.array([False, True, True, False, False, False, False])
+    L = np.array([0.0, 100.0, 50.0, 0, 0, 0, 0])
+    fast = cap_sums(labels, vals, want, L, 2.0)
+    ref = cap_sums_ref(labels, vals, want, L, 2.0)
+    assert np.array_equal(fast[0], ref[0]) and np.array_equal(fast[1], ref[1]) and fast[2]
+    labels[1:-1, 1:-1] = 1
+    assert not cap_sums(labels, vals, want, L, 2.0)[2] and not cap_sums_ref(labels, vals, want, L, 2.0)[2]
 
 
 # ---------------------------------------------------------------------------------------
@@ -192,6 +277,38 @@ def test_innermost_enclosing_matches_its_twin(seed):
         k = j + 1
     assert parents[1:].tolist() == expected
     assert (fast[:200] >= 0).any() and (fast[:200] == -1).any()
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_innermost_enclosing_rows_equals_rays(seed):
+    """The row sweep answers as the ray query, also for many queries on one row and y
+    (as the caps ask: sample positions), on loops whose vertices sit on the half-pixel grid."""
+    rng = np.random.default_rng(400 + seed)
+    w, h = 30.0, 20.0
+    loops = [np.round(p * 2) / 2 for p in nested_loops(rng, w, h)]
+    loops = [p[np.any(p != np.roll(p, 1, axis=0), axis=1)] for p in loops]
+    area = np.array([shoelace(p) for p in loops])
+    level = rng.integers(0, 3, size=len(loops)).astype(np.int64)
+    split = [split_at_half_rows(p) for p in loops]
+    x0 = np.concatenate([p[:, 0] for p in split])
+    y0 = np.concatenate([p[:, 1] for p in split])
+    x1 = np.concatenate([np.roll(p[:, 0], -1) for p in split])
+    y1 = np.concatenate([np.roll(p[:, 1], -1) for p in split])
+    seg_loop = np.concatenate([np.full(len(p), k) for k, p in enumerate(split)]).astype(np.int64)
+    n_rows = int(2 * h) + 1
+    row = np.clip(np.floor(np.minimum(y0, y1) * 2).astype(np.int64), 0, n_rows - 1)
+    row_start, row_order = bucket_rows(row, n_rows)
+    assert np.array_equal(row_order, np.argsort(row, kind="stable"))
+    assert np.array_equal(row_start, np.searchsorted(row[row_order], np.arange(n_rows + 1)))
+    n = 400
+    px = np.concatenate([rng.uniform(-1, w + 1, n), np.round(rng.uniform(0, w, n) * 2) / 2])
+    py = np.concatenate([rng.uniform(-1, h + 1, n), np.round(rng.uniform(0, h, n) * 2) / 2])
+    exclude = np.where(rng.random(2 * n) < 0.2, rng.integers(0, len(loops), 2 * n), -1).astype(np.int64)
+    args = (x0, y0, x1, y1, seg_loop, row_start, row_order, area, level, n_rows)
+    rays = innermost_enclosing(px, py, exclude, *args)
+    rows = innermost_enclosing_rows(px, py, exclude, *args)
+    assert np.array_equal(rows, rays)
+    assert (rows >= 0).sum() > n // 2
 
 
 # ---------------------------------------------------------------------------------------

@@ -40,3 +40,19 @@ def test_sweep_parents_equal_ray_parents(name):
     )
     assert iso.n_loops > 20
     assert np.array_equal(h.parent, ref)
+
+
+@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
+def test_cap_contours_by_rows_equal_rays(name):
+    """The caps' enclosing contours (innermost_enclosing_rows) are the ray query's."""
+    levels = preset_levels(10)
+    g, ge = map_pixels(images()[name], 0.5)
+    iso = find_isolines(g, ge, levels)
+    h = build_hierarchy(iso, levels)
+    x0, y0, x1, y1, seg_loop, rs, ro, n_rows = segment_table(iso)
+    ref = innermost_enclosing(
+        h.cap_xy[:, 0].copy(), h.cap_xy[:, 1].copy(), np.full(len(h.cap_xy), -1, np.int64),
+        x0, y0, x1, y1, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+    )
+    assert len(ref) > 5 and (ref >= 0).any()
+    assert np.array_equal(h.cap_contour, ref)

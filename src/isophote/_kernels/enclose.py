@@ -164,3 +164,129 @@ def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loo
         for g in range(sp):
             on_stack[stack[g]] = False
     return parent, seen
+
+
+@njit(cache=True, nogil=True)
+def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, row_order,
+                             area, level, n_rows):
+    """:func:`innermost_enclosing` (same arguments, same answers) for many queries per row.
+
+    Queries of one row and one y share one pass: the row's crossings of the line y are
+    sorted by x once and swept left to right, the queries in order of x, keeping the
+    winding number of every loop crossed so far and the set of loops where it is non-zero.
+    Among those (the loops enclosing the query), the innermost is chosen as the ray query
+    does: smallest |area|, then higher level, then the loop whose first crossing comes
+    first in the row's segment order.
+    """
+    nq = px.shape[0]
+    nloops = area.shape[0]
+    out = np.full(nq, -1, np.int64)
+    if nq == 0:
+        return out
+    kq = np.empty(nq, np.int64)
+    for q in range(nq):
+        k = int(np.floor(py[q] * 2.0))
+        if k < 0:
+            k = 0
+        if k >= n_rows:
+            k = n_rows - 1
+        kq[q] = k
+    # queries by row, then y, then x
+    o = np.argsort(px, kind="mergesort")
+    o = o[np.argsort(py[o], kind="mergesort")]
+    o = o[np.argsort(kq[o], kind="mergesort")]
+    wind = np.zeros(nloops, np.int64)
+    first = np.full(nloops, np.iinfo(np.int64).max, np.int64)
+    where = np.full(nloops, -1, np.int64)
+    members = np.empty(nloops, np.int64)
+    touched = np.empty(nloops, np.int64)
+    g0 = 0
+    while g0 < nq:
+        k = kq[o[g0]]
+        yq = py[o[g0]]
+        g1 = g0
+        while g1 < nq and kq[o[g1]] == k and py[o[g1]] == yq:
+            g1 += 1
+        a0 = row_start[k]
+        a1 = row_start[k + 1]
+        xs = np.empty(a1 - a0)
+        ls = np.empty(a1 - a0, np.int64)
+        ds = np.empty(a1 - a0, np.int64)
+        ps = np.empty(a1 - a0, np.int64)
+        nc = 0
+        for a in range(a0, a1):
+            s = row_order[a]
+            ya = y0[s]
+            yb = y1[s]
+            if ya == yb:
+                continue
+            if (ya <= yq < yb) or (yb <= yq < ya):
+                xs[nc] = x0[s] + (yq - ya) * (x1[s] - x0[s]) / (yb - ya)
+                ls[nc] = seg_loop[s]
+                ds[nc] = 1 if yb > ya else -1
+                ps[nc] = a
+                nc += 1
+        order = np.argsort(xs[:nc])
+        nm = 0
+        nt = 0
+        p = 0
+        for g in range(g0, g1):
+            q = o[g]
+            while p < nc and xs[order[p]] < px[q]:
+                c = order[p]
+                lp = ls[c]
+                if first[lp] == np.iinfo(np.int64).max:
+                    touched[nt] = lp
+                    nt += 1
+                if ps[c] < first[lp]:
+                    first[lp] = ps[c]
+                wind[lp] += ds[c]
+                if wind[lp] != 0 and where[lp] < 0:
+                    where[lp] = nm
+                    members[nm] = lp
+                    nm += 1
+                elif wind[lp] == 0 and where[lp] >= 0:
+                    last = members[nm - 1]
+                    members[where[lp]] = last
+                    where[last] = where[lp]
+                    where[lp] = -1
+                    nm -= 1
+                p += 1
+            best = -1
+            for i in range(nm):
+                lp = members[i]
+                if lp == exclude[q]:
+                    continue
+                if best < 0:
+                    best = lp
+                else:
+                    ab = abs(area[best])
+                    al = abs(area[lp])
+                    if al < ab or (al == ab and (level[lp] > level[best]
+                                                 or (level[lp] == level[best] and first[lp] < first[best]))):
+                        best = lp
+            out[q] = best
+        for i in range(nt):
+            lp = touched[i]
+            wind[lp] = 0
+            first[lp] = np.iinfo(np.int64).max
+            where[lp] = -1
+        g0 = g1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def bucket_rows(row, n_rows):
+    """Counting sort of row indices in [0, n_rows): (row_start (n_rows + 1,), row_order), equal
+    to np.argsort(row, kind="stable") and np.searchsorted(row[row_order], arange(n_rows + 1))."""
+    row_start = np.zeros(n_rows + 1, np.int64)
+    for s in range(row.shape[0]):
+        row_start[row[s] + 1] += 1
+    for k in range(n_rows):
+        row_start[k + 1] += row_start[k]
+    fill = row_start[:-1].copy()
+    row_order = np.empty(row.shape[0], np.int64)
+    for s in range(row.shape[0]):
+        row_order[fill[row[s]]] = s
+        fill[row[s]] += 1
+    return row_start, row_order

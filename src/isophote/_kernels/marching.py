@@ -18,9 +18,15 @@ Per segment the kernel reports: start and end keys (edge id * n_levels + level; 
 is shared by the two cells of its edge, so keys link segments into loops), the level, the
 border flag, and the start crossing as (below sample, above sample, t): the point lies at
 t of the way from the below sample to the above sample (t = 1 when the below one is padding).
+
+Linking: the segment after s starts where s ends, on the same edge and level, in the cell
+across that edge, so :func:`march_loops` finds it among that cell's few segments (no sort);
+loops start at, and are ordered by, their smallest start key.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -43,10 +49,59 @@ def _edge_id(r, c, k, hp, wp):
 
 
 @njit(cache=True, nogil=True)
-def _march(vals, band, levels, fill, skey, ekey, lev, border, s_below, s_above, s_t):
+def pad_bands(grid, levels):
+    """Padded values and bands: a ring of band 0 (value 0) around the grid. The band of v
+    is the number of levels <= v (np.searchsorted(levels, v, "right"))."""
+    hg, wg = grid.shape
+    nl = levels.shape[0]
+    vals = np.zeros((hg + 2, wg + 2))
+    band = np.zeros((hg + 2, wg + 2), np.int16)
+    for r in range(hg):
+        for c in range(wg):
+            v = grid[r, c]
+            vals[r + 1, c + 1] = v
+            lo = 0
+            hi = nl
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if levels[mid] <= v:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            band[r + 1, c + 1] = lo
+    return vals, band
+
+
+@njit(cache=True, nogil=True)
+def _march_cells(vals, band, levels):
+    """The segments of every cell and level (the kernel of the module docstring), in scan
+    order, with what linking needs. Per segment: its cell
+    (r (wp - 1) + c), level, start and end edge; rec[s] = (next segment, to be filled by the
+    caller; start key; below sample; above sample; 2 level + border flag) and t. Segments
+    of cell k are cell_start[k]:cell_start[k+1]."""
     hp, wp = vals.shape
     nl = levels.shape[0]
-    n = 0
+    ncell = (hp - 1) * (wp - 1)
+    # count first: a cell has one segment per level between its lowest and highest corner
+    # band, and a second one for each level that makes it a saddle
+    cell_start = np.empty(ncell + 1, np.int64)
+    cap = 0
+    for r in range(hp - 1):
+        for c in range(wp - 1):
+            cell_start[r * (wp - 1) + c] = cap
+            b0 = band[r, c]
+            b1 = band[r, c + 1]
+            b2 = band[r + 1, c + 1]
+            b3 = band[r + 1, c]
+            cap += (max(max(b0, b1), max(b2, b3)) - min(min(b0, b1), min(b2, b3))
+                    + max(0, min(b0, b2) - max(b1, b3)) + max(0, min(b1, b3) - max(b0, b2)))
+    cell_start[ncell] = cap
+    s_cell = np.empty(cap, np.int64)
+    s_lev = np.empty(cap, np.int64)
+    s_ea = np.empty(cap, np.int8)
+    s_eb = np.empty(cap, np.int8)
+    rec = np.empty((cap, 5), np.int64)
+    s_t = np.empty(cap, np.float64)
     cv = np.empty(4, np.float64)
     cb = np.empty(4, np.int64)
     cidx = np.empty(4, np.int64)
@@ -55,11 +110,19 @@ def _march(vals, band, levels, fill, skey, ekey, lev, border, s_below, s_above, 
     cross = np.empty(4, np.int64)
     segs_a = np.empty(2, np.int64)
     segs_b = np.empty(2, np.int64)
+    n = 0
     for r in range(hp - 1):
         for c in range(wp - 1):
-            bmin = 1 << 30
-            bmax = -1
-            anypad = False
+            b0 = band[r, c]
+            b1 = band[r, c + 1]
+            b2 = band[r + 1, c + 1]
+            b3 = band[r + 1, c]
+            bmin = min(min(b0, b1), min(b2, b3))
+            bmax = max(max(b0, b1), max(b2, b3))
+            if bmin == bmax:
+                continue
+            cell = r * (wp - 1) + c
+            anypad = r == 0 or c == 0 or r + 1 == hp - 1 or c + 1 == wp - 1
             for k in range(4):
                 rr = r + _CDR[k]
                 cc = c + _CDC[k]
@@ -67,11 +130,6 @@ def _march(vals, band, levels, fill, skey, ekey, lev, border, s_below, s_above, 
                 cb[k] = band[rr, cc]
                 cidx[k] = rr * wp + cc
                 cpad[k] = rr == 0 or cc == 0 or rr == hp - 1 or cc == wp - 1
-                anypad = anypad or cpad[k]
-                if cb[k] < bmin:
-                    bmin = cb[k]
-                if cb[k] > bmax:
-                    bmax = cb[k]
             for l in range(bmin, bmax):
                 L = levels[l]
                 for k in range(4):
@@ -93,13 +151,11 @@ def _march(vals, band, levels, fill, skey, ekey, lev, border, s_below, s_above, 
                         segs_b[0] = ea
                     ns = 1
                 else:
-                    # saddle: above corners are {0, 2} or {1, 3}
                     den = cv[0] + cv[2] - cv[1] - cv[3]
                     s = (cv[0] * cv[2] - cv[1] * cv[3]) / den
                     centre_above = s >= L
                     for k in range(4):
                         if above[k] != centre_above:
-                            # cut off corner k, between edges k-1 and k
                             ep = (k + 3) % 4
                             if above[k]:
                                 segs_a[ns] = ep
@@ -109,42 +165,44 @@ def _march(vals, band, levels, fill, skey, ekey, lev, border, s_below, s_above, 
                                 segs_b[ns] = ep
                             ns += 1
                 for q in range(ns):
-                    if fill:
-                        ea = segs_a[q]
-                        eb = segs_b[q]
-                        skey[n] = _edge_id(r, c, ea, hp, wp) * nl + l
-                        ekey[n] = _edge_id(r, c, eb, hp, wp) * nl + l
-                        lev[n] = l
-                        border[n] = anypad
-                        ka = ea
-                        kb = (ea + 1) % 4
-                        if above[ka]:
-                            ka, kb = kb, ka
-                        s_below[n] = cidx[ka]
-                        s_above[n] = cidx[kb]
-                        if cpad[ka]:
-                            s_t[n] = 1.0
-                        else:
-                            s_t[n] = (L - cv[ka]) / (cv[kb] - cv[ka])
+                    ea = segs_a[q]
+                    s_cell[n] = cell
+                    s_lev[n] = l
+                    s_ea[n] = ea
+                    s_eb[n] = segs_b[q]
+                    ka = ea
+                    kb = (ea + 1) % 4
+                    if above[ka]:
+                        ka, kb = kb, ka
+                    rec[n, 1] = _edge_id(r, c, ea, hp, wp) * nl + l
+                    rec[n, 2] = cidx[ka]
+                    rec[n, 3] = cidx[kb]
+                    rec[n, 4] = 2 * l + (1 if anypad else 0)
+                    if cpad[ka]:
+                        s_t[n] = 1.0
+                    else:
+                        s_t[n] = (L - cv[ka]) / (cv[kb] - cv[ka])
                     n += 1
-    return n
+    return n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start
 
 
 def march(vals, band, levels):
-    """Run the kernel: returns a dict of per-segment arrays (see module docstring)."""
+    """The segments of the marching kernel as per-segment arrays (see module docstring), in
+    scan order: skey, ekey, level, border, below, above, t."""
     vals = np.ascontiguousarray(vals, np.float64)
-    band = np.ascontiguousarray(band, np.int64)
+    band = np.ascontiguousarray(band)
     levels = np.ascontiguousarray(levels, np.float64)
-    e64 = np.zeros(0, np.int64)
-    n = _march(vals, band, levels, False, e64, e64, np.zeros(0, np.int32), np.zeros(0, np.bool_), e64, e64, np.zeros(0))
-    out = dict(
-        skey=np.empty(n, np.int64), ekey=np.empty(n, np.int64), level=np.empty(n, np.int32),
-        border=np.empty(n, np.bool_), below=np.empty(n, np.int64), above=np.empty(n, np.int64),
-        t=np.empty(n, np.float64),
+    hp, wp = vals.shape
+    n, s_cell, s_lev, _, s_eb, rec, s_t, _ = _march_cells(vals, band, levels)
+    r, c = np.divmod(s_cell[:n], wp - 1)
+    eb = s_eb[:n]
+    edge = np.where(eb == 0, r * wp + c, np.where(eb == 1, hp * wp + r * wp + c + 1,
+                    np.where(eb == 2, (r + 1) * wp + c, hp * wp + r * wp + c)))
+    return dict(
+        skey=rec[:n, 1].copy(), ekey=edge * levels.shape[0] + s_lev[:n], level=s_lev[:n].astype(np.int32),
+        border=(rec[:n, 4] & 1).astype(bool), below=rec[:n, 2].copy(), above=rec[:n, 3].copy(),
+        t=s_t[:n].copy(),
     )
-    _march(vals, band, levels, True, out["skey"], out["ekey"], out["level"], out["border"],
-           out["below"], out["above"], out["t"])
-    return out
 
 
 def march_ref(vals, band, levels):
@@ -224,44 +282,246 @@ def march_ref(vals, band, levels):
     return {k: a[order] for k, a in out.items()}
 
 
-def link_loops(skey, ekey):
-    """Follow segments into closed loops.
-
-    Returns (order, loop_offsets): segments order[loop_offsets[i]:loop_offsets[i+1]] form loop
-    i in travel order. Each key must start exactly one segment and end exactly one (else
-    both arrays come back empty). Loops start at their segment of smallest start key
-    (deterministic). The sort and the look-up are NumPy's; the walk is compiled.
-    """
-    skey = np.asarray(skey, np.int64)
-    ekey = np.asarray(ekey, np.int64)
-    n = skey.shape[0]
-    srt = np.argsort(skey, kind="stable")
-    sk = skey[srt]
-    j = np.searchsorted(sk, ekey)
-    if n and (j.max() >= n or not np.array_equal(sk[np.minimum(j, n - 1)], ekey)):
-        return np.empty(0, np.int64), np.empty(0, np.int64)  # broken topology
-    return _walk(srt[j] if n else np.empty(0, np.int64), srt)
+# ---------------------------------------------------------------------------------------
+# Marching, linking and the per-point gathers of encoder/isolines.py in one kernel; its twin
+# is march_ref, a plain walk along the keys and NumPy gathers (march_loops_ref).
+# ---------------------------------------------------------------------------------------
 
 
 @njit(cache=True, nogil=True)
-def _walk(nxt, srt):
-    n = nxt.shape[0]
+def _grad_at(grid, r, c):
+    """|grad| of the (unpadded) grid at sample (r, c): np.gradient(grid, 0.5) and hypot,
+    as encoder/ribbon.py's gradient_magnitude."""
+    hg, wg = grid.shape
+    if r == 0:
+        gy = (grid[1, c] - grid[0, c]) / 0.5
+    elif r == hg - 1:
+        gy = (grid[hg - 1, c] - grid[hg - 2, c]) / 0.5
+    else:
+        gy = (grid[r + 1, c] - grid[r - 1, c]) / (2.0 * 0.5)
+    if c == 0:
+        gx = (grid[r, 1] - grid[r, 0]) / 0.5
+    elif c == wg - 1:
+        gx = (grid[r, wg - 1] - grid[r, wg - 2]) / 0.5
+    else:
+        gx = (grid[r, c + 1] - grid[r, c - 1]) / (2.0 * 0.5)
+    return math.hypot(gx, gy)
+
+
+@njit(cache=True, nogil=True)
+def march_loops(vals, band, levels, grid, grid_eps):
+    """All isolines of a padded grid as loops, in one call: marching, linking, and the
+    per-point data of encoder/isolines.py.
+
+    grid, grid_eps : the unpadded grid (vals without its ring) and its sample errors.
+    Loops are ordered by, and start at, their segment of smallest start key (as
+    link_loops); loops with no isoline segment (wholly on the frame) are left out and their
+    levels returned. Per point of the kept loops, in travel order: (x, y), the border flag
+    of the segment it starts, its below and above samples (flat padded indices) and t, and
+    the sample errors and gradient magnitudes at the below and above samples (0 on the
+    padding). Returns ok False (and empty arrays) if the segments do not close into loops.
+    """
+    hp, wp = vals.shape
+    hg, wg = grid.shape
+    n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
+    # link: the segment after s starts on s's end edge, in the cell across it, same level
+    ok = True
+    for s in range(n):
+        cell = s_cell[s]
+        r = cell // (wp - 1)
+        c = cell - r * (wp - 1)
+        eb = s_eb[s]
+        if eb == 0:
+            r -= 1
+        elif eb == 1:
+            c += 1
+        elif eb == 2:
+            r += 1
+        else:
+            c -= 1
+        rec[s, 0] = -1
+        if r < 0 or c < 0 or r >= hp - 1 or c >= wp - 1:
+            ok = False
+            break
+        other = r * (wp - 1) + c
+        want = (eb + 2) % 4
+        for s2 in range(cell_start[other], cell_start[other + 1]):
+            if s_lev[s2] == s_lev[s] and s_ea[s2] == want:
+                rec[s, 0] = s2
+                break
+        if rec[s, 0] < 0:
+            ok = False
+            break
+    # what only linking needed goes (memory: about 140 bytes a segment remain at peak)
+    s_cell = s_cell[:0].copy()
+    s_lev = s_lev[:0].copy()
+    s_ea = s_ea[:0].copy()
+    s_eb = s_eb[:0].copy()
+    cell_start = cell_start[:0].copy()
+    # |grad| of the samples next to a crossing, each computed once (-1: not yet)
+    grad = np.full((hg, wg), -1.0)
+    # walk each loop once (from its first segment in scan order), writing its points in
+    # travel order to a buffer, and note its smallest start key, where that is, its length
+    # and whether it has an isoline segment
     seen = np.zeros(n, np.bool_)
-    order = np.empty(n, np.int64)
-    offs = np.empty(n + 1, np.int64)
-    offs[0] = 0
+    lp_key = np.empty(n, np.int64)
+    lp_at = np.empty(n, np.int64)
+    lp_start = np.empty(n + 1, np.int64)
+    lp_inner = np.empty(n, np.bool_)
+    lp_lev = np.empty(n, np.int64)
+    lp_start[0] = 0
+    buf_f = np.empty((n if ok else 0, 7))  # x, y, t, eps below, eps above, grad below, grad above
+    buf_i = np.empty((n if ok else 0, 3), np.int64)  # below, above, border
     n_loops = 0
     m = 0
-    for q in range(n):
-        i = srt[q]  # visiting in key order makes each loop start at its smallest key
+    if ok:
+        for s0 in range(n):
+            if seen[s0]:
+                continue
+            bkey = -1
+            at = 0
+            inner = False
+            j = s0
+            while not seen[j]:
+                seen[j] = True
+                key = rec[j, 1]
+                if bkey < 0 or key < bkey:
+                    bkey = key
+                    at = m - lp_start[n_loops]
+                b = rec[j, 2]
+                ab = rec[j, 3]
+                brd = rec[j, 4] & 1
+                inner = inner or brd == 0
+                tt = s_t[j]
+                rb = b // wp
+                cb = b - rb * wp
+                ra = ab // wp
+                ca = ab - ra * wp
+                # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
+                buf_f[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
+                buf_f[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
+                buf_f[m, 2] = tt
+                if rb == 0 or cb == 0 or rb == hp - 1 or cb == wp - 1:
+                    buf_f[m, 3] = 0.0
+                    buf_f[m, 5] = 0.0
+                else:
+                    buf_f[m, 3] = grid_eps[rb - 1, cb - 1]
+                    if grad[rb - 1, cb - 1] < 0.0:
+                        grad[rb - 1, cb - 1] = _grad_at(grid, rb - 1, cb - 1)
+                    buf_f[m, 5] = grad[rb - 1, cb - 1]
+                if ra == 0 or ca == 0 or ra == hp - 1 or ca == wp - 1:
+                    buf_f[m, 4] = 0.0
+                    buf_f[m, 6] = 0.0
+                else:
+                    buf_f[m, 4] = grid_eps[ra - 1, ca - 1]
+                    if grad[ra - 1, ca - 1] < 0.0:
+                        grad[ra - 1, ca - 1] = _grad_at(grid, ra - 1, ca - 1)
+                    buf_f[m, 6] = grad[ra - 1, ca - 1]
+                buf_i[m, 0] = b
+                buf_i[m, 1] = ab
+                buf_i[m, 2] = brd
+                m += 1
+                j = rec[j, 0]
+            if j != s0:
+                ok = False
+                break
+            lp_key[n_loops] = bkey
+            lp_at[n_loops] = at
+            lp_inner[n_loops] = inner
+            lp_lev[n_loops] = rec[s0, 4] >> 1
+            n_loops += 1
+            lp_start[n_loops] = m
+    if not ok:
+        n_loops = 0
+    rec = rec[:0].copy()
+    s_t = s_t[:0].copy()
+    grad = grad[:0].copy()
+    # the kept loops in order of their smallest start key, each rotated to start there
+    order = np.argsort(lp_key[:n_loops])
+    n_out = 0
+    n_kept = 0
+    for a in range(n_loops):
+        if lp_inner[a]:
+            n_out += lp_start[a + 1] - lp_start[a]
+            n_kept += 1
+    points = np.empty((n_out, 2))
+    border = np.empty(n_out, np.bool_)
+    below = np.empty(n_out, np.int64)
+    above = np.empty(n_out, np.int64)
+    t = np.empty(n_out)
+    eps_b = np.empty(n_out)
+    eps_a = np.empty(n_out)
+    grad_b = np.empty(n_out)
+    grad_a = np.empty(n_out)
+    level = np.empty(n_kept, np.int32)
+    offsets = np.empty(n_kept + 1, np.int64)
+    frame_levels = np.empty(n_loops - n_kept, np.int64)
+    offsets[0] = 0
+    m = 0
+    kl = 0
+    fl = 0
+    for a in range(n_loops):
+        lp = order[a]
+        o = lp_start[lp]
+        length = lp_start[lp + 1] - o
+        if not lp_inner[lp]:
+            frame_levels[fl] = lp_lev[lp]
+            fl += 1
+            continue
+        level[kl] = lp_lev[lp]
+        for k in range(length):
+            src = o + lp_at[lp] + k
+            if src >= o + length:
+                src -= length
+            points[m, 0] = buf_f[src, 0]
+            points[m, 1] = buf_f[src, 1]
+            t[m] = buf_f[src, 2]
+            eps_b[m] = buf_f[src, 3]
+            eps_a[m] = buf_f[src, 4]
+            grad_b[m] = buf_f[src, 5]
+            grad_a[m] = buf_f[src, 6]
+            below[m] = buf_i[src, 0]
+            above[m] = buf_i[src, 1]
+            border[m] = buf_i[src, 2] != 0
+            m += 1
+        kl += 1
+        offsets[kl] = m
+    return ok, points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets, frame_levels
+
+
+def march_loops_ref(vals, band, levels, grid, grid_eps):
+    """NumPy twin of :func:`march_loops`: march_ref, a plain walk along the keys, gathers,
+    and np.gradient for the gradient magnitude."""
+    seg = march_ref(vals, band, levels)
+    hp, wp = vals.shape
+    start = {int(k): s for s, k in enumerate(seg["skey"])}
+    nxt = np.array([start.get(int(k), -1) for k in seg["ekey"]], np.int64)
+    seen = np.zeros(len(nxt), bool)
+    loops = []
+    for i in np.argsort(seg["skey"], kind="stable"):  # each loop from its smallest key
         if seen[i]:
             continue
+        lp = []
         j = i
         while not seen[j]:
             seen[j] = True
-            order[m] = j
-            m += 1
+            lp.append(j)
             j = nxt[j]
-        n_loops += 1
-        offs[n_loops] = m
-    return order, offs[: n_loops + 1].copy()
+        loops.append(np.asarray(lp, np.int64))
+    inner = [lp for lp in loops if not np.all(seg["border"][lp])]
+    frame_levels = np.array([seg["level"][lp[0]] for lp in loops if np.all(seg["border"][lp])], np.int64)
+    order = np.concatenate(inner) if inner else np.zeros(0, np.int64)
+    below, above, t = seg["below"][order], seg["above"][order], seg["t"][order]
+    rb, cb = np.divmod(below, wp)
+    ra, ca = np.divmod(above, wp)
+    points = np.column_stack([((cb - 1) + t * (ca - cb)) * 0.5, ((rb - 1) + t * (ra - rb)) * 0.5])
+    eps_p = np.zeros((hp, wp))
+    eps_p[1:-1, 1:-1] = grid_eps
+    gy, gx = np.gradient(np.asarray(grid, np.float64), 0.5)
+    grad_p = np.zeros((hp, wp))
+    grad_p[1:-1, 1:-1] = np.hypot(gx, gy)
+    ef, gf = eps_p.ravel(), grad_p.ravel()
+    level = np.array([seg["level"][lp[0]] for lp in inner], np.int32)
+    offsets = np.concatenate([[0], np.cumsum([len(lp) for lp in inner])]).astype(np.int64)
+    return (True, points, seg["border"][order], below, above, t, ef[below], ef[above], gf[below],
+            gf[above], level, offsets, frame_levels)

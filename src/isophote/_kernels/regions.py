@@ -11,6 +11,8 @@ Labels are numbered in scan order of each region's first sample (deterministic).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -158,3 +160,137 @@ def region_stats(labels, vals, m):
             total[k] += v
             count[k] += 1
     return amin, amax, total, count
+
+
+@njit(cache=True, nogil=True)
+def cap_sums(labels, vals, want, L, ramp):
+    """Least-squares sums of the cap profile fit (encoder/hierarchy.py) for the regions k
+    with want[k]: num[k] = sum (v - L[k]) f and den[k] = sum f^2 over the region's samples,
+    f = min(1, d / min(dmax[k], ramp)). d is the distance, in pixels, from a sample to the
+    nearest edge sample (one with a 4-neighbour of another region; the padding is no
+    neighbour) plus half a grid step, the grid step being half a pixel; dmax[k] is the
+    largest d in region k. Returns (num, den, has_edge); has_edge False means one region
+    covers the whole grid (then num and den are zeros).
+
+    Only d < ramp matters (f = 1 beyond, and min(dmax, ramp) = ramp as soon as one sample
+    of the region is that far), so edges are looked for in a window of radius R around
+    each sample, R + 1.5 >= 2 ramp grid steps; a sample with no edge within R + 1 steps is
+    given d = ramp.
+    """
+    hp, wp = labels.shape
+    h = hp - 2
+    w = wp - 2
+    m = want.shape[0]
+    num = np.zeros(m)
+    den = np.zeros(m)
+    edge = np.zeros((h, w), np.bool_)
+    has_edge = False
+    for r in range(h):
+        for c in range(w):
+            k = labels[r + 1, c + 1]
+            e = ((c + 1 < w and labels[r + 1, c + 2] != k) or (c > 0 and labels[r + 1, c] != k)
+                 or (r + 1 < h and labels[r + 2, c + 1] != k) or (r > 0 and labels[r, c + 1] != k))
+            edge[r, c] = e
+            has_edge = has_edge or e
+    if not has_edge:
+        return num, den, False
+    rad = max(0, int(math.ceil(2.0 * ramp - 1.5)))
+    far = (rad + 1) * (rad + 1)
+    d = np.empty((h, w))
+    dmax = np.zeros(m)
+    for r in range(h):
+        for c in range(w):
+            k = labels[r + 1, c + 1]
+            if not want[k]:
+                continue
+            best = far + 1
+            if edge[r, c]:
+                best = 0
+            else:
+                for rr in range(max(0, r - rad), min(h, r + rad + 1)):
+                    dr = rr - r
+                    for cc in range(max(0, c - rad), min(w, c + rad + 1)):
+                        if edge[rr, cc]:
+                            s = dr * dr + (cc - c) * (cc - c)
+                            if s < best:
+                                best = s
+            dist = (math.sqrt(best) + 0.5) * 0.5 if best <= far else ramp
+            d[r, c] = dist
+            if dist > dmax[k]:
+                dmax[k] = dist
+    for r in range(h):
+        for c in range(w):
+            k = labels[r + 1, c + 1]
+            if not want[k]:
+                continue
+            f = min(1.0, d[r, c] / max(min(dmax[k], ramp), 1e-9))
+            num[k] += (vals[r + 1, c + 1] - L[k]) * f
+            den[k] += f * f
+    return num, den, True
+
+
+def cap_sums_ref(labels, vals, want, L, ramp):
+    """NumPy twin of :func:`cap_sums`: an exact distance transform over the whole grid."""
+    from scipy.ndimage import distance_transform_edt
+
+    m = want.shape[0]
+    lab = labels[1:-1, 1:-1]
+    v = vals[1:-1, 1:-1]
+    edge = np.zeros(lab.shape, bool)
+    dh = lab[:, :-1] != lab[:, 1:]
+    dv = lab[:-1, :] != lab[1:, :]
+    edge[:, :-1] |= dh
+    edge[:, 1:] |= dh
+    edge[:-1, :] |= dv
+    edge[1:, :] |= dv
+    if not edge.any():
+        return np.zeros(m), np.zeros(m), False
+    d = (distance_transform_edt(~edge) + 0.5) * 0.5
+    flat = lab.ravel()
+    dmax = np.zeros(m)
+    np.maximum.at(dmax, flat, d.ravel())
+    ramp_eff = np.minimum(dmax, ramp)[flat]
+    f = np.minimum(1.0, d.ravel() / np.maximum(ramp_eff, 1e-9))
+    w = want[flat]
+    num = np.bincount(flat[w], weights=(v.ravel() - L[flat])[w] * f[w], minlength=m)
+    den = np.bincount(flat[w], weights=(f * f)[w], minlength=m)
+    return num, den, True
+
+
+@njit(cache=True, nogil=True)
+def region_levels(labels, band, above, below, lev_seg, m):
+    """Lowest and highest level of the crossings that bound each region: a crossing of
+    level l (segment start points; above/below are its samples, flat indices) touches the
+    region of its above sample if that sample is in band l + 1, and the region of its below
+    sample if that one is in band l. Returns (lo, hi) (m,) int64; regions no crossing touches
+    keep lo = int64 max, hi = -1."""
+    lab = labels.ravel()
+    bf = band.ravel()
+    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
+    hi = np.full(m, -1, np.int64)
+    for s in range(lev_seg.shape[0]):
+        lv = lev_seg[s]
+        a = above[s]
+        if bf[a] == lv + 1:
+            k = lab[a]
+            lo[k] = min(lo[k], lv)
+            hi[k] = max(hi[k], lv)
+        b = below[s]
+        if bf[b] == lv:
+            k = lab[b]
+            lo[k] = min(lo[k], lv)
+            hi[k] = max(hi[k], lv)
+    return lo, hi
+
+
+def region_levels_ref(labels, band, above, below, lev_seg, m):
+    """NumPy twin of :func:`region_levels`."""
+    lab = labels.ravel()
+    bf = band.ravel().astype(np.int64)
+    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
+    hi = np.full(m, -1, np.int64)
+    for smp, want in ((above, lev_seg + 1), (below, lev_seg)):
+        sel = bf[smp] == want
+        np.minimum.at(lo, lab[smp[sel]], lev_seg[sel])
+        np.maximum.at(hi, lab[smp[sel]], lev_seg[sel])
+    return lo, hi

@@ -90,8 +90,10 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
     grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale)
     iso = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
-    points, offsets, border = fit_isolines(iso, opts.snap)
-    tree = build_hierarchy(iso, levels)
+    with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
+        tree = side.submit(build_hierarchy, iso, levels)
+        points, offsets, border = fit_isolines(iso, opts.snap)
+        tree = tree.result()
     q = float(QUANT)
     return Channel(
         name=name,
@@ -121,88 +123,91 @@ def fit_isolines(iso: Isolines, snap: float):
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
     offs = iso.offsets
+    n_seg = np.diff(offs)
     tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
-    seg_loop = np.repeat(np.arange(n_loops), np.diff(offs))
+    seg_loop = np.repeat(np.arange(n_loops), n_seg)
     has_border = np.zeros(n_loops, bool)
     has_border[seg_loop[iso.border]] = True
-
-    # Pieces to fit: whole loops without border (taken in one slice), then the isoline runs
-    # of the loops that touch the border.
     closed_loops = np.flatnonzero(~has_border)
+    n_closed = closed_loops.shape[0]
     in_closed = ~has_border[seg_loop]
-    piece_pts, piece_tol = [iso.points[in_closed]], [tol[in_closed]]
-    counts = [np.diff(offs)[closed_loops]]
-    plans = {}  # loop -> list of ("fit", piece index) or ("line", (m, 2) corner points)
-    n_pieces = len(closed_loops)
-    for i in np.flatnonzero(has_border):
-        pts = iso.points[offs[i] : offs[i + 1]]
-        brd = iso.border[offs[i] : offs[i + 1]]
-        tl = tol[offs[i] : offs[i + 1]]
-        plan = []
-        n = len(pts)
-        # every kept loop has an isoline stretch (isolines.py drops frame-only loops):
-        # start at the first isoline segment that follows a border segment
-        k0 = int(np.flatnonzero(~brd & np.roll(brd, 1))[0])
-        idx = (np.arange(n + 1) + k0) % n  # points k0 .. k0 + n (back to start)
-        segb = brd[idx[:-1]]
-        start = 0
-        while start < n:
-            stop = start
-            while stop < n and segb[stop] == segb[start]:
-                stop += 1
-            run = idx[start : stop + 1]
-            if segb[start]:
-                plan.append(("line", _corners(pts[run])))
-            else:
-                plan.append(("fit", n_pieces))
-                piece_pts.append(pts[run])
-                piece_tol.append(tl[run])
-                counts.append([len(run)])
-                n_pieces += 1
-            start = stop
-        plans[i] = plan
 
-    counts = np.concatenate([np.asarray(c, np.int64) for c in counts])
-    piece_closed = np.zeros(n_pieces, bool)
-    piece_closed[: len(closed_loops)] = True
+    # Loops that touch the border split into runs of isoline and of border segments. Each
+    # such loop is read from the first isoline segment that follows a border segment (every
+    # kept loop has an isoline stretch: isolines.py drops frame-only loops), so its runs go
+    # fit, line, ..., fit, line. A run of s segments has s + 1 points, its last one shared
+    # with the next run (for the loop's last run, the loop's first point).
+    bl = np.flatnonzero(has_border)
+    nb = n_seg[bl]
+    prev = np.arange(-1, iso.border.shape[0] - 1)
+    prev[offs[:-1]] = offs[1:] - 1
+    after_border = np.flatnonzero(~iso.border & iso.border[prev] & has_border[seg_loop])
+    _, first = np.unique(seg_loop[after_border], return_index=True)
+    k0 = after_border[first] - offs[bl]
+    ext = nb + 1  # a loop's points in reading order, its first point repeated at the end
+    ext_base = np.cumsum(ext) - ext
+    loop_r = np.repeat(np.arange(bl.shape[0]), ext)
+    pos = np.arange(int(ext.sum())) - ext_base[loop_r]
+    rot = offs[bl][loop_r] + (pos + k0[loop_r]) % nb[loop_r]
+    segb = iso.border[rot]
+    run_start = np.flatnonzero((pos < nb[loop_r]) & ((pos == 0) | (segb != np.roll(segb, 1))))
+    run_loop = loop_r[run_start]
+    first_run = np.ones(run_start.shape[0], bool)
+    first_run[1:] = run_loop[1:] != run_loop[:-1]
+    last_run = np.ones_like(first_run)
+    last_run[:-1] = first_run[1:]
+    run_last = np.empty_like(run_start)  # where in rot the run's last point is
+    run_last[:-1] = run_start[1:]
+    run_last[last_run] = (ext_base + nb)[run_loop[last_run]]
+    run_pts = run_last - run_start + 1
+    run_line = segb[run_start]
+
+    # Pieces to fit: whole loops without border (taken in one slice), then the isoline runs.
+    fit_r = np.flatnonzero(~run_line)
+    fit_idx = rot[_ranges(run_start[fit_r], run_pts[fit_r])]
+    counts = np.concatenate([n_seg[closed_loops], run_pts[fit_r]]).astype(np.int64)
+    piece_closed = np.zeros(counts.shape[0], bool)
+    piece_closed[:n_closed] = True
     chains, c_off = fit_many(
-        np.concatenate(piece_pts).astype(np.float64),
-        np.concatenate(piece_tol).astype(np.float64),
+        np.concatenate([iso.points[in_closed], iso.points[fit_idx]]).astype(np.float64),
+        np.concatenate([tol[in_closed], tol[fit_idx]]).astype(np.float64),
         np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
         piece_closed,
         snap,
     )
+    line_r = np.flatnonzero(run_line)
+    lines, l_off = _line_chains(iso.points[rot[_ranges(run_start[line_r], run_pts[line_r])]],
+                                run_pts[line_r])
 
-    # Assemble in loop order: the closed loops' chains are gathered in one go.
+    # A border loop's chain: its runs' chains in order, each after the first without the
+    # point it shares with the run before; line runs reduced to a point are left out.
+    src_start = np.empty(run_start.shape[0], np.int64)
+    src_len = np.empty(run_start.shape[0], np.int64)
+    src_start[fit_r] = c_off[n_closed:-1]
+    src_len[fit_r] = np.diff(c_off[n_closed:])
+    src_start[line_r] = chains.shape[0] + l_off[:-1]
+    src_len[line_r] = np.diff(l_off)
+    keep = src_len > 1  # a loop's first run is a fitted one: always kept
+    skip = (~first_run).astype(np.int64)
+    src_start = (src_start + skip)[keep]
+    src_len = (src_len - skip)[keep]
+    kept_loop = run_loop[keep]
+    run_segs = (src_len - 1 + skip[keep]) // 3
+
     length = np.empty(n_loops, np.int64)
-    length[closed_loops] = np.diff(c_off)[: len(closed_loops)]
-    assembled = {}
-    for i, plan in plans.items():
-        parts, flags = [], []
-        for kind, item in plan:
-            if kind == "fit":
-                ch = chains[c_off[item] : c_off[item + 1]]
-                parts.append(ch[1:] if parts else ch)
-                flags.append(np.zeros((len(ch) - 1) // 3, bool))
-            else:
-                ch = _line_chain(item)
-                if len(ch) == 1:
-                    continue
-                parts.append(ch[1:] if parts else ch)
-                flags.append(np.ones((len(ch) - 1) // 3, bool))
-        ch = np.vstack(parts)
-        ch[-1] = ch[0]
-        assembled[i] = (ch, np.concatenate(flags))
-        length[i] = len(ch)
+    length[closed_loops] = np.diff(c_off)[:n_closed]
+    length[bl] = np.bincount(kept_loop, weights=src_len, minlength=bl.shape[0]).astype(np.int64)
     offsets = np.concatenate([[0], np.cumsum(length)]).astype(np.int64)
     points = np.empty((int(offsets[-1]), 2))
+    points[_ranges(offsets[closed_loops], length[closed_loops])] = chains[: c_off[n_closed]]
+    points[_ranges(offsets[bl], length[bl])] = np.concatenate([chains, lines])[_ranges(src_start, src_len)]
+    points[offsets[bl + 1] - 1] = points[offsets[bl]]  # the loop closes exactly
     border = np.zeros((int(offsets[-1]) - n_loops) // 3, bool)
-    dst = _ranges(offsets[closed_loops], length[closed_loops])
-    points[dst] = chains[: c_off[len(closed_loops)]]
     seg_off = (offsets - np.arange(n_loops + 1)) // 3
-    for i, (ch, fl) in assembled.items():
-        points[offsets[i] : offsets[i + 1]] = ch
-        border[seg_off[i] : seg_off[i + 1]] = fl
+    before = np.cumsum(run_segs) - run_segs
+    run_seg0 = seg_off[bl][kept_loop] + before - before[first_run[keep]][kept_loop]
+    line_k = run_line[keep]
+    border[_ranges(run_seg0[line_k], run_segs[line_k])] = True
     return points, offsets, border
 
 
@@ -213,24 +218,34 @@ def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     return np.repeat(starts - before, lengths) + np.arange(total)
 
 
-def _corners(pts: np.ndarray) -> np.ndarray:
-    """Points of a border run reduced to its ends and the image corners it turns at."""
-    keep = np.ones(len(pts), bool)
-    keep[1:] = np.any(pts[1:] != pts[:-1], axis=1)  # drop repeated points
-    p = pts[keep]
-    if len(p) < 3:
-        return p if len(p) == 2 else np.vstack([p, p])[:2]
+def _line_chains(pts: np.ndarray, counts: np.ndarray):
+    """Border runs (their points concatenated, ``counts`` per run) as straight segments
+    through each run's ends and the image corners it turns at (repeated points dropped).
+    Returns the chains (1 + 3n rows each, concatenated) and their (runs + 1,) offsets."""
+    n_runs = counts.shape[0]
+    if n_runs == 0:
+        return np.zeros((0, 2)), np.zeros(1, np.int64)
+    run = np.repeat(np.arange(n_runs), counts)
+    keep = np.ones(run.shape[0], bool)
+    keep[1:] = (run[1:] != run[:-1]) | np.any(pts[1:] != pts[:-1], axis=1)
+    p, r = pts[keep], run[keep]
+    new_run = np.ones(r.shape[0] + 1, bool)
+    new_run[1:-1] = r[1:] != r[:-1]
+    sel = new_run[:-1] | new_run[1:]  # each run's ends
     d = np.diff(p, axis=0)
-    turn = np.abs(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]) > 1e-12
-    sel = np.concatenate([[True], turn, [True]])
-    return p[sel]
-
-
-def _line_chain(corners: np.ndarray) -> np.ndarray:
-    """Straight cubic segments through the corner points: (1 + 3n, 2)."""
-    out = [corners[0]]
-    for a, b in zip(corners[:-1], corners[1:]):
-        if np.array_equal(a, b):
-            continue
-        out.extend([a + (b - a) / 3.0, a + 2.0 * (b - a) / 3.0, b])
-    return np.asarray(out)
+    sel[1:-1] |= np.abs(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]) > 1e-12  # turns
+    c, cr = p[sel], r[sel]
+    a, b = c[:-1], c[1:]
+    pair = (cr[1:] == cr[:-1]) & np.any(a != b, axis=1)
+    a, b, pr = a[pair], b[pair], cr[:-1][pair]
+    n_pairs = np.bincount(pr, minlength=n_runs)
+    l_off = np.concatenate([[0], np.cumsum(1 + 3 * n_pairs)]).astype(np.int64)
+    out = np.empty((int(l_off[-1]), 2))
+    starts = np.ones(cr.shape[0], bool)
+    starts[1:] = cr[1:] != cr[:-1]
+    out[l_off[:-1]] = c[starts]
+    row = l_off[pr] + 1 + 3 * (np.arange(pr.shape[0]) - (np.cumsum(n_pairs) - n_pairs)[pr])
+    out[row] = a + (b - a) / 3.0
+    out[row + 1] = a + 2.0 * (b - a) / 3.0
+    out[row + 2] = b
+    return out, l_off

@@ -27,6 +27,8 @@ The chain layout and the coordinate convention are those of :mod:`isophote.model
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -114,6 +116,11 @@ def fit_polyline(points, tol, closed, snap=20.0):
 def fit_many(points, tol, offsets, closed, snap=20.0):
     """Fit many polylines at once; equal to :func:`fit_polyline` on each.
 
+    Large batches are fitted in parallel: groups of consecutive polylines with about equal
+    point counts go to the compiled kernel in threads (it releases the GIL). Each chain
+    depends on its own polyline alone, so the output is the same bytes whatever the number
+    of threads.
+
     Parameters
     ----------
     points : (N, 2) float64 array_like
@@ -148,7 +155,39 @@ def fit_many(points, tol, offsets, closed, snap=20.0):
     sizes = np.diff(offsets)
     if np.any(sizes < np.where(closed, 3, 2)):
         raise ValueError("every open polyline needs >= 2 points and every closed one >= 3")
-    return fit_many_kernel(points, tol, offsets, closed, _cos_snap(snap))
+    cos_snap = _cos_snap(snap)
+    workers = _workers()
+    if workers < 2 or points.shape[0] < PARALLEL_POINTS:
+        return fit_many_kernel(points, tol, offsets, closed, cos_snap)
+    # groups of consecutive polylines, about equal in points, several per thread so that
+    # a thread that finishes early takes another
+    cuts = np.searchsorted(offsets, np.linspace(0, points.shape[0], 4 * workers + 1)[1:-1])
+    bounds = np.unique(np.concatenate([[0], cuts, [len(closed)]]))
+
+    def part(k):
+        o = offsets[bounds[k] : bounds[k + 1] + 1]
+        return fit_many_kernel(points[o[0] : o[-1]], tol[o[0] : o[-1]], o - o[0],
+                               closed[bounds[k] : bounds[k + 1]], cos_snap)
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        parts = list(pool.map(part, range(len(bounds) - 1)))
+    chains = np.concatenate([c for c, _ in parts])
+    lengths = np.concatenate([np.diff(co) for _, co in parts])
+    return chains, np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+
+
+# Batches of fewer points are fitted in the calling thread (threads would cost more than
+# they save).
+PARALLEL_POINTS = 20_000
+
+
+def _workers() -> int:
+    """Threads for fit_many: the processors this process may use, at most 8."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(n, 8))
 
 
 def _eval_chain(chain, seg, t):

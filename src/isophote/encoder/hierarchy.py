@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scipy.ndimage import distance_transform_edt
-
 from ..model import CAP_RAMP
-from .._kernels.enclose import innermost_enclosing, sweep_enclosing
-from .._kernels.regions import label_regions, region_stats
+from .._kernels.enclose import (
+    bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
+)
+from .._kernels.regions import cap_sums, label_regions, region_levels, region_stats
 from .isolines import Isolines
 
 
@@ -50,29 +50,16 @@ def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):
     """Least-squares cap values for the profile of model.py.
 
     d is measured on the grid: the distance to the nearest sample of another region (not
-    the padding: the border is no isoline) plus half a grid step, in pixels.
+    the padding: the border is no isoline) plus half a grid step, in pixels
+    (_kernels/regions.py: cap_sums).
     """
-    lab = labels[1:-1, 1:-1]
-    v = values[1:-1, 1:-1]
-    edge = np.zeros(lab.shape, bool)
-    dh = lab[:, :-1] != lab[:, 1:]
-    dv = lab[:-1, :] != lab[1:, :]
-    edge[:, :-1] |= dh
-    edge[:, 1:] |= dh
-    edge[:-1, :] |= dv
-    edge[1:, :] |= dv
-    if not edge.any():
-        return np.array([float(v.mean())] * len(regs))
-    d = (distance_transform_edt(~edge) + 0.5) * 0.5
-    flat = lab.ravel()
-    dmax = np.zeros(m)
-    np.maximum.at(dmax, flat, d.ravel())
+    want = np.zeros(m, bool)
+    want[regs] = True
     L = np.zeros(m)
     L[regs] = level_value
-    ramp_eff = np.minimum(dmax, ramp)[flat]
-    f = np.minimum(1.0, d.ravel() / np.maximum(ramp_eff, 1e-9))
-    num = np.bincount(flat, weights=(v.ravel() - L[flat]) * f, minlength=m)
-    den = np.bincount(flat, weights=f * f, minlength=m)
+    num, den, has_edge = cap_sums(labels, values, want, L, float(ramp))
+    if not has_edge:
+        return np.array([float(values[1:-1, 1:-1].mean())] * len(regs))
     out = L[regs] + num[regs] / np.maximum(den[regs], 1e-12)
     return np.clip(out, 0.0, 255.0)
 
@@ -87,8 +74,7 @@ def segment_table(iso: Isolines):
     seg_loop = np.repeat(np.arange(iso.n_loops), np.diff(iso.offsets))
     n_rows = max(iso.band.shape[0] - 3, 1)
     row = np.clip(np.floor(np.minimum(y0, y1) * 2.0).astype(np.int64), 0, n_rows - 1)
-    row_order = np.argsort(row, kind="stable")
-    row_start = np.searchsorted(row[row_order], np.arange(n_rows + 1))
+    row_start, row_order = bucket_rows(row, n_rows)
     return x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows
 
 
@@ -117,51 +103,31 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
             x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
         )
 
-    labels, m = label_regions(iso.values, iso.band.astype(np.int64), np.asarray(levels, np.float64))
-    lab = labels.ravel()
-    band_flat = iso.band.ravel().astype(np.int64)
-    lev_seg = lev_loop[seg_loop]
-    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
-    hi = np.full(m, -1, np.int64)
-    # a crossing of level l touches the region of its above sample if that sample is in band
-    # l + 1, and the region of its below sample if that one is in band l (padding is band 0)
-    for smp, want in ((iso.above, lev_seg + 1), (iso.below, lev_seg)):
-        sel = band_flat[smp] == want
-        np.minimum.at(lo, lab[smp[sel]], lev_seg[sel])
-        np.maximum.at(hi, lab[smp[sel]], lev_seg[sel])
+    labels, m = label_regions(iso.values, iso.band, np.asarray(levels, np.float64))
+    # the levels of the crossings next to each region's samples
+    lo, hi = region_levels(labels, iso.band, iso.above, iso.below, lev_loop[seg_loop], m)
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
     amin, amax, total, count = region_stats(labels, iso.values, m)
     is_cap &= count > 0  # the padding-only part of the root has no samples
     regs = np.flatnonzero(is_cap)
-    band_flat = iso.band.ravel()
     vals_flat = iso.values.ravel()
     hp, wp = iso.band.shape
-    cap_band, cap_idx, cap_value = [], [], []
-    for reg in regs:
-        b = int(band_flat[amin[reg]])
-        if hi[reg] < 0:  # no bounding contour: the mean, at the sample closest to it
-            idx = int(amin[reg])
-            value = total[reg] / count[reg]
-        elif b == lo[reg] + 1:  # above its only level: a peak
-            idx = int(amax[reg])
-            value = vals_flat[idx]
-        else:  # at or below its only level: a pit
-            idx = int(amin[reg])
-            value = vals_flat[idx]
-        cap_band.append(b)
-        cap_idx.append(idx)
-        cap_value.append(value)
-    cap_idx = np.asarray(cap_idx, np.int64)
+    cap_band = iso.band.ravel()[amin[regs]].astype(np.int32)
+    no_contour = hi[regs] < 0  # the mean, at the sample closest to it
+    peak = ~no_contour & (cap_band == lo[regs] + 1)  # above its only level (else a pit)
+    cap_idx = np.where(peak, amax[regs], amin[regs]).astype(np.int64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cap_value = np.where(no_contour, total[regs] / count[regs], vals_flat[cap_idx])
     if len(regs):
-        single = hi[regs] >= 0
+        single = ~no_contour
         level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
         fitted = fit_cap_values(labels, iso.values, m, regs, level_value, single)
-        cap_value = np.where(single, fitted, np.asarray(cap_value, np.float64))
+        cap_value = np.where(single, fitted, cap_value)
     r, cc = np.divmod(cap_idx, wp)
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
-    cap_contour = innermost_enclosing(
+    cap_contour = innermost_enclosing_rows(
         cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_idx), -1, np.int64),
         x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
     ) if c else np.full(len(cap_idx), -1, np.int64)

@@ -12,9 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels.marching import link_loops, march
-from .levels import bands
-from .ribbon import gradient_magnitude, tolerances
+from .._kernels.marching import march_loops, pad_bands
+from .ribbon import tolerances
 
 
 @dataclass(frozen=True)
@@ -55,56 +54,38 @@ class Isolines:
 
 def pad_grid(grid: np.ndarray, levels: np.ndarray):
     """Padded values and bands: a ring of band 0 (below every level) around the grid."""
-    hg, wg = grid.shape
-    vals = np.zeros((hg + 2, wg + 2), np.float64)
-    vals[1:-1, 1:-1] = grid
-    band = np.zeros((hg + 2, wg + 2), np.int16)
-    band[1:-1, 1:-1] = bands(grid, levels)
-    return vals, band
+    return pad_bands(np.ascontiguousarray(grid, np.float64), np.ascontiguousarray(levels, np.float64))
 
 
 def find_isolines(grid, grid_eps, levels, min_tol=0.05, max_tol=0.5) -> Isolines:
-    """All isolines of a mapped grid (see encode.mapping for the grid layout)."""
-    levels = np.asarray(levels, np.float64)
+    """All isolines of a mapped grid (see encode.mapping for the grid layout).
+
+    One compiled pass (_kernels/marching.py: march_loops) marches, links the segments into
+    loops and gathers, per point, the sample errors and gradient magnitudes that
+    ribbon.tolerances turns into tolerances (the gradient as ribbon.gradient_magnitude's,
+    at the samples next to a crossing only; tests/test_kernels.py holds them equal).
+    """
+    levels = np.ascontiguousarray(levels, np.float64)
+    grid = np.ascontiguousarray(grid, np.float64)
+    grid_eps = np.ascontiguousarray(np.broadcast_to(grid_eps, grid.shape), np.float64)
     vals, band = pad_grid(grid, levels)
-    hp, wp = vals.shape
-    seg = march(vals, band, levels)
-    order, offs = link_loops(seg["skey"], seg["ekey"])
-    if order.shape[0] != seg["skey"].shape[0]:
+    (ok, points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets,
+     frame_levels) = march_loops(vals, band, levels, grid, grid_eps)
+    if not ok:
         raise RuntimeError("marching squares produced an open contour")  # a bug, never input
-    below, above, t = seg["below"][order], seg["above"][order], seg["t"][order]
-    rb, cb = np.divmod(below, wp)
-    ra, ca = np.divmod(above, wp)
-    # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
-    x = ((cb - 1) + t * (ca - cb)) * 0.5
-    y = ((rb - 1) + t * (ra - rb)) * 0.5
-    points = np.column_stack([x, y])
-    eps_p = np.zeros((hp, wp))
-    eps_p[1:-1, 1:-1] = grid_eps
-    grad_p = np.zeros((hp, wp))
-    grad_p[1:-1, 1:-1] = gradient_magnitude(np.asarray(grid, np.float64))
-    ef, gf = eps_p.ravel(), grad_p.ravel()
-    tol = tolerances(ef[below], ef[above], gf[below], gf[above], t, min_tol, max_tol)
-    first = order[offs[:-1]]
-    border = seg["border"][order]
-    level = seg["level"][first].astype(np.int32)
-    # loops lying wholly on the border: the image border is above their level all round
-    seg_loop = np.repeat(np.arange(len(first)), np.diff(offs))
-    interior = np.zeros(len(first), bool)
-    interior[seg_loop[~border]] = True
-    base = int(np.count_nonzero(~interior))
-    if base and not np.array_equal(np.sort(level[~interior]), np.arange(base)):
+    # loops lying wholly on the border (the image border is above their level all round)
+    # are left out: they must be the lowest levels
+    base = frame_levels.shape[0]
+    if base and not np.array_equal(np.sort(frame_levels), np.arange(base)):
         raise RuntimeError("frame loops are not the lowest levels")  # a bug, never input
-    keep_seg = interior[seg_loop]
-    counts = np.diff(offs)[interior]
     return Isolines(
-        points=points[keep_seg],
-        offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-        border=border[keep_seg],
-        tol=tol[keep_seg],
-        level=level[interior],
-        above=above[keep_seg],
-        below=below[keep_seg],
+        points=points,
+        offsets=offsets,
+        border=border,
+        tol=tolerances(eps_b, eps_a, grad_b, grad_a, t, min_tol, max_tol),
+        level=level,
+        above=above,
+        below=below,
         band=band,
         values=vals,
         base_band=base,
