@@ -594,6 +594,21 @@ def test_input_depths_are_scaled():
 # ---------------------------------------------------------------------------------------
 
 
+def test_cubic_base_interpolates_cubics_exactly():
+    """With p = 0 the midpoints are the 4-point Lagrange (Catmull-Rom) midpoints at cubic = 1,
+    exact for a cubic polynomial away from the ends, and the linear midpoints at cubic = 0."""
+    x = np.arange(12, dtype=np.float64)
+    f = lambda t: 0.05 * t**3 - 0.4 * t**2 + 3.0 * t + 20.0  # noqa: E731
+    row = np.tile(f(x), (3, 1))
+    g, ge = map_pixels(row, 0.5, 0.0, 64.0, 1.0)
+    mids = g[3, 2:-2:2]  # between samples j and j + 1 (grid columns 2j + 2)
+    np.testing.assert_allclose(mids[1:-1], f(x[1:-2] + 0.5), atol=1e-9)
+    g0, ge0 = map_pixels(row, 0.5, 0.0, 64.0, 0.0)
+    np.testing.assert_allclose(g0[3, 2:-2:2], 0.5 * (f(x[:-1]) + f(x[1:])), atol=1e-9)
+    # the cubic term's error: (1/16)(2 eps + 2 eps) on top of the linear midpoint's eps
+    assert ge[3, 6] == pytest.approx(ge0[3, 6] + 4 * 0.5 / 16)
+
+
 def test_map_pixels_matches_its_numpy_twin():
     from isophote.encoder.mapping import map_pixels_ref
 
@@ -603,7 +618,8 @@ def test_map_pixels_matches_its_numpy_twin():
         v = rng.uniform(0, 255, (h, w)) if k % 3 else np.round(rng.uniform(0, 4, (h, w))) * 64.0
         eps = 0.5 if k % 2 else rng.uniform(0, 3, (h, w))
         p, scale = (0.5, 64.0) if k % 4 else (rng.uniform(0, 2), rng.uniform(1, 128))
-        for a, b in zip(map_pixels(v, eps, p, scale), map_pixels_ref(v, eps, p, scale)):
+        cubic = (1.0, 0.0, rng.uniform(0, 2))[k % 3]
+        for a, b in zip(map_pixels(v, eps, p, scale, cubic), map_pixels_ref(v, eps, p, scale, cubic)):
             assert a.shape == b.shape == (2 * h + 1, 2 * w + 1)
             assert a.tobytes() == b.tobytes()  # equal to the bit, signed zeros included
 

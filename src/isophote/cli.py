@@ -178,10 +178,13 @@ ENCODE_FLAGS = {
                           help="largest error-ribbon half-width in source pixels (default: from the preset)"),
     "carrato_p": dict(type=float, metavar="P", help="p of the Carrato 2x upsampling (paper 3.2)"),
     "carrato_scale": dict(type=float, metavar="G", help="intensity unit of the Carrato differences, in grey levels"),
+    "carrato_cubic": dict(type=float, metavar="W",
+                          help="weight of the cubic (Catmull-Rom) term under the Carrato midpoints: 1 = "
+                               "cubic, 0 = the paper's linear base"),
 }
 ENCODE_ADVANCED = ("local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
                    "min_tolerance",
-                   "max_tolerance", "carrato_p", "carrato_scale")
+                   "max_tolerance", "carrato_p", "carrato_scale", "carrato_cubic")
 
 RENDER_FLAGS = {
     "scale": dict(type=_positive_float, metavar="S", help="output size = source (or crop) size x S (default: 1)"),

@@ -26,9 +26,23 @@ Intensity scale
     unit 1 11.12, unit 16 9.81, unit 32 9.36, unit 64 9.16 (best), unit 255 9.17 grey levels.
     Smaller units (the raw 0..255 scale, where p = 0.5 saturates on every texture) over-sharpen.
 
+Cubic base (our change to §3.2)
+    The formula above bends the LINEAR midpoint phi[x] + D[x] / 2. We add the cubic term of
+    Catmull-Rom interpolation, - cubic * (D[x + 1] - D[x - 1]) / 16, so that at cubic = 1 a
+    smooth signal gets the cubic midpoint (-phi[x-1] + 9 phi[x] + 9 phi[x+1] - phi[x+2]) / 16
+    and an edge still gets Carrato's push. Where the contours run between the samples decides
+    how renders look between them (at 1x in the bands' shapes, and at every enlargement or
+    warp). Measured with the paper preset (astronaut, chelsea, camera; 1x mean PSNR / FLIP and
+    segments): linear base 40.53 dB / 0.0381, cubic 41.06 / 0.0366 with 1 % fewer segments;
+    weight 2 (Keys' a = -1 kernel) 41.61 / 0.0354 but 15 % more segments. 4x enlargement of the
+    4x-reduced photograph (PSNR / SSIMULACRA2): astronaut 24.77 / 11.2 -> 25.23 / 18.1, chelsea
+    29.32 / 22.6 -> 29.66 / 28.8. Prediction error (below): 9.16 -> 9.09 at unit 64.
+    carrato_cubic = 0 gives the paper's formula exactly.
+
 Errors (§3.2)
     Each original sample has error eps. An interpolant's error is half the spread of the
-    formula over the limiting inputs: the differences D +- (|eps_a| + |eps_b|) and phi[x] +- eps.
+    formula over the limiting inputs: the differences D +- (|eps_a| + |eps_b|) and phi[x] +- eps;
+    the cubic term adds cubic / 16 times the error bounds of D[x - 1] and D[x + 1].
 """
 
 from __future__ import annotations
@@ -38,8 +52,10 @@ import itertools
 import numpy as np
 from numba import njit
 
+CUBIC = 1.0  # weight of the cubic term (module docstring); EncodeOptions.carrato_cubic
 
-def carrato_midpoints(v, eps, p, scale, axis):
+
+def carrato_midpoints(v, eps, p, scale, axis, cubic=CUBIC):
     """Interpolate midpoints between consecutive samples along ``axis``.
 
     Parameters
@@ -72,6 +88,7 @@ def carrato_midpoints(v, eps, p, scale, axis):
         return (p * sl + 1.0) / (p * (sl + sr) + 2.0)
 
     mid = base + weight(dl, dr) * d
+    mid = mid - cubic * (dr - dl) / 16.0
     # The formula is base + w(D[x-1], D[x+1]) * D[x]: the base error adds +-eps as it is, and
     # w * D[x] takes its extremes at the corners of the box of limiting differences (w > 0).
     lo = np.full_like(mid, np.inf)
@@ -85,6 +102,7 @@ def carrato_midpoints(v, eps, p, scale, axis):
     hi += base_e
     lo -= base_e
     mid_eps = 0.5 * (hi - lo)
+    mid_eps = mid_eps + cubic * (del_ + der) / 16.0
     return np.moveaxis(mid, 0, axis), np.moveaxis(mid_eps, 0, axis)
 
 
@@ -99,7 +117,7 @@ def _interleave(v, mid, axis):
     return np.moveaxis(out, 0, axis)
 
 
-def map_pixels(channel, eps, p=0.5, scale=64.0):
+def map_pixels(channel, eps, p=0.5, scale=64.0, cubic=CUBIC):
     """The Carrato 2x grid of one channel, with the border ring.
 
     Parameters
@@ -117,17 +135,17 @@ def map_pixels(channel, eps, p=0.5, scale=64.0):
     """
     v = np.ascontiguousarray(channel, dtype=np.float64)
     e = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, dtype=np.float64), v.shape))
-    return _map_kernel(v, e, float(p), float(scale))
+    return _map_kernel(v, e, float(p), float(scale), float(cubic))
 
 
-def map_pixels_ref(channel, eps, p=0.5, scale=64.0):
+def map_pixels_ref(channel, eps, p=0.5, scale=64.0, cubic=CUBIC):
     """NumPy twin of :func:`map_pixels`."""
     v = np.asarray(channel, dtype=np.float64)
     e = np.broadcast_to(np.asarray(eps, dtype=np.float64), v.shape).copy()
-    mid, mid_e = carrato_midpoints(v, e, p, scale, axis=1)
+    mid, mid_e = carrato_midpoints(v, e, p, scale, axis=1, cubic=cubic)
     v1 = _interleave(v, mid, 1)
     e1 = _interleave(e, mid_e, 1)
-    mid, mid_e = carrato_midpoints(v1, e1, p, scale, axis=0)
+    mid, mid_e = carrato_midpoints(v1, e1, p, scale, axis=0, cubic=cubic)
     g = _interleave(v1, mid, 0)
     ge = _interleave(e1, mid_e, 0)
     g = np.pad(g, 1, mode="edge")
@@ -151,10 +169,11 @@ def _weight(dl, dr, p, scale):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale):
+def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale, cubic):
     """Carrato midpoint after ``base`` (difference d to the next sample, dl and dr the
     differences before and after, de, dle, dre their error bounds) and its error."""
     mid = base + _weight(dl, dr, p, scale) * d
+    mid = mid - cubic * (dr - dl) / 16.0
     lo = np.inf
     hi = -np.inf
     for sl in (-1.0, 1.0):
@@ -166,11 +185,11 @@ def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale):
                 hi = hi if hi > val else val
     hi += base_e
     lo -= base_e
-    return mid, 0.5 * (hi - lo)
+    return mid, 0.5 * (hi - lo) + cubic * (dle + dre) / 16.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _map_kernel(v, e, p, scale):
+def _map_kernel(v, e, p, scale, cubic):
     h, w = v.shape
     w1 = 2 * w - 1
     g = np.empty((2 * h + 1, 2 * w + 1))
@@ -194,7 +213,7 @@ def _map_kernel(v, e, p, scale):
             if j + 2 < w:
                 dr = v[i, j + 2] - v[i, j + 1]
                 dre = abs(e[i, j + 1]) + abs(e[i, j + 2])
-            g[r, 2 * j + 2], ge[r, 2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale)
+            g[r, 2 * j + 2], ge[r, 2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale, cubic)
     # along y: rows 2i + 2, between rows 2i + 1 and 2i + 3
     for i in range(h - 1):
         r = 2 * i + 1
@@ -211,7 +230,7 @@ def _map_kernel(v, e, p, scale):
             if i + 2 < h:
                 dr = g[r + 4, c] - g[r + 2, c]
                 dre = abs(ge[r + 2, c]) + abs(ge[r + 4, c])
-            g[r + 1, c], ge[r + 1, c] = _midpoint(g[r, c], ge[r, c], d, de, dl, dle, dr, dre, p, scale)
+            g[r + 1, c], ge[r + 1, c] = _midpoint(g[r, c], ge[r, c], d, de, dl, dle, dr, dre, p, scale, cubic)
     # the border ring repeats its neighbours
     for r in range(1, 2 * h):
         g[r, 0] = g[r, 1]
