@@ -607,6 +607,11 @@ def test_cubic_base_interpolates_cubics_exactly():
     np.testing.assert_allclose(g0[3, 2:-2:2], 0.5 * (f(x[:-1]) + f(x[1:])), atol=1e-9)
     # the cubic term's error: (1/16)(2 eps + 2 eps) on top of the linear midpoint's eps
     assert ge[3, 6] == pytest.approx(ge0[3, 6] + 4 * 0.5 / 16)
+    # at a step the cubic would ring; clamped, flat stays flat and no midpoint overshoots
+    step = np.tile(np.repeat([50.0, 200.0], 6), (3, 1))
+    gs, _ = map_pixels(step, 0.5, 0.5, 64.0, 1.0)
+    assert gs.min() == 50.0 and gs.max() == 200.0
+    assert np.all(gs[:, :11] == 50.0) and np.all(gs[:, -11:] == 200.0)
 
 
 def test_map_pixels_matches_its_numpy_twin():

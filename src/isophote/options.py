@@ -78,7 +78,7 @@ class EncodeOptions:
         measured; p = 0.5 acts on differences in this unit (see encoder.mapping).
     carrato_cubic : weight of the cubic (Catmull-Rom) term added to the midpoints: 1 puts
         Carrato's edge-adaptive weight on a cubic base, 0 on the paper's linear one (see
-        encoder.mapping). Channels whose small extrema are pruned use 0.
+        encoder.mapping).
     """
 
     preset: str = DEFAULT_PRESET

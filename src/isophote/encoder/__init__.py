@@ -21,7 +21,7 @@ from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
-from .noise import prepare_plane, pruned
+from .noise import prepare_plane
 
 QUANT = 64  # control points and cap values are stored on a 1/64 grid (format/isoph.py)
 MAX_PIXELS = 100_000_000
@@ -88,9 +88,7 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
 def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions) -> Channel:
     levels = channel_levels(name, opts)
     plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
-    # the cubic term's overshoot at edges would trace again the small crossings pruning removed
-    cubic = 0.0 if pruned(name, opts) else opts.carrato_cubic
-    grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, cubic)
+    grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, opts.carrato_cubic)
     iso = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
     with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
         tree = side.submit(build_hierarchy, iso, levels)

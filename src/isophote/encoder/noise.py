@@ -102,12 +102,6 @@ def sample_error(plane, eps0, levels, local, floor=0.0) -> np.ndarray:
     return np.maximum(est, eps0)
 
 
-def pruned(name, opts) -> bool:
-    """Does prepare_plane flatten the small extrema of this channel?"""
-    area = float((opts.prune_area_uv if name in ("U", "V") else opts.prune_area_y) or 0.0)
-    return area > 0 and opts.prune_contrast > 0
-
-
 def prepare_plane(name, plane, eps, levels, opts):
     """The plane and its per-sample error as the contour finder should see them.
 
