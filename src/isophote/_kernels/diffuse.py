@@ -436,6 +436,11 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 out[a, bcol] = mid
                 continue
             j0 = int(np.floor(x - 0.5))
+            if (use_nv and 0 <= i0 < nr and 0 <= j0 < nc and x == j0 + 0.5 and y == i0 + 0.5
+                    and nband[i0, j0] == b):
+                # the sample is a node (renders at 1x): nv holds this very evaluation
+                out[a, bcol] = nv[i0, j0]
+                continue
             if use_nv and 0 <= i0 < nr - 1 and 0 <= j0 < nc - 1:
                 if (nband[i0, j0] == b and nband[i0, j0 + 1] == b
                         and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b
