@@ -141,6 +141,17 @@ def test_tone_curve_keeps_the_levels_fixed(vi):
     assert np.array_equal(again.levels, y.levels) and np.array_equal(again.tone, t)
 
 
+def test_warp_keeps_the_tone_curve(vi):
+    """An equalised image warped: the contours move, the tone curve travels with them, so the
+    identity warp renders exactly as before."""
+    eq = E.equalise(vi)
+    same = W.warp(eq, W.Affine([[1, 0, 0], [0, 1, 0]]))
+    assert np.array_equal(same.channel("Y").tone, eq.channel("Y").tone)
+    assert np.array_equal(same.render(), eq.render())
+    turned = W.warp(eq, W.rotation(10, (eq.width / 2, eq.height / 2)))
+    assert np.array_equal(turned.channel("Y").tone, eq.channel("Y").tone)
+
+
 def test_tone_curve_of_known_distributions():
     rng = np.random.default_rng(5)
     levels = np.array([60.0, 180.0])

@@ -912,6 +912,7 @@ def _warp_channel(ch, vi, t, w, h, reflect, moved_frame, cover, bg_value, tol) -
         cap_xy=np.zeros((0, 2)),
         cap_value=np.zeros(0),
         base_band=base_band,
+        tone=ch.tone,  # a value curve (equalisation's): the geometry moves, the values stay
     )
     # caps
     cap_xy, cap_keep = _move_caps(ch, vi, t, w, h)
