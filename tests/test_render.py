@@ -350,3 +350,22 @@ def test_render_is_stable_under_a_tiny_shift():
     a = render_float(vi)
     b = render_float(moved)
     assert np.abs(a - b).max() <= 0.5
+
+
+@pytest.mark.parametrize("scale", [1, 3])
+def test_plateau_closed_against_the_frame_keeps_its_value(scale):
+    """A dark plateau at 40 that one level (47.5) closes against the frame is a pit cap: the
+    level below it (37.5) runs along the frame there only as border stretches, which are no
+    isolines (the decoder takes no distance from them), so they do not make it a two-level
+    band; it renders at 40, not at a capless band's default (45)."""
+    yy, xx = centres(30, 40)
+    # up from the plateau, then down to 10 at the right, so the 37.5 contour exists and closes
+    # round the plateau along the frame
+    img = np.clip(40.0 + 8.0 * np.clip(xx - 15.0, 0.0, 12.0) - 12.0 * np.maximum(0.0, xx - 28.0), 10.0, 235.0)
+    vi = isophote.encode(img)
+    ch = vi.channels[0]
+    band_40 = int(np.searchsorted(ch.levels, 40.0, side="right"))
+    assert np.any(ch.cap_band == band_40)
+    out = render_float(vi, scale=scale)[..., 0]
+    plateau = out[:, : 12 * scale]
+    assert np.abs(plateau - 40.0).max() <= 1.0, np.abs(plateau - 40.0).max()

@@ -105,7 +105,10 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
 
     labels, m = label_regions(iso.values, iso.band, np.asarray(levels, np.float64))
     # the levels of the crossings next to each region's samples
-    lo, hi = region_levels(labels, iso.band, iso.above, iso.below, lev_loop[seg_loop], m)
+    # (border stretches are no isolines: the decoder takes no distance from them, so a region
+    # that one level closes against the frame is a cap, whatever levels run along the frame)
+    iso_seg = ~iso.border
+    lo, hi = region_levels(labels, iso.band, iso.above[iso_seg], iso.below[iso_seg], lev_loop[seg_loop][iso_seg], m)
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
