@@ -66,6 +66,14 @@ CHANNEL_NAMES = ("Y", "U", "V", "A")
 CAP_RAMP = 2.0  # pixels: the longest ramp of a cap's profile (see Caps above)
 
 
+def apply_tone_curve(values: np.ndarray, tone) -> np.ndarray:
+    """A tone curve's knots (see Tone above; None = no curve) applied to values, keeping
+    their dtype."""
+    if tone is None:
+        return values
+    return np.interp(values, tone[:, 0], tone[:, 1]).astype(values.dtype, copy=False)
+
+
 @dataclass(frozen=True, eq=False)
 class Channel:
     """The contours of one colour channel.
@@ -162,9 +170,7 @@ class Channel:
 
     def apply_tone(self, values: np.ndarray) -> np.ndarray:
         """The tone curve applied to rendered values (unchanged when there is none)."""
-        if self.tone is None:
-            return values
-        return np.interp(values, self.tone[:, 0], self.tone[:, 1]).astype(values.dtype, copy=False)
+        return apply_tone_curve(values, self.tone)
 
     @staticmethod
     def empty(name: str, levels, base_band: int = 0) -> "Channel":

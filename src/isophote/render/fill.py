@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import CAP_RAMP
+from ..model import CAP_RAMP, apply_tone_curve
 from .._kernels.diffuse import evaluate
 from .._kernels.raster import rasterise
 
@@ -35,8 +35,7 @@ def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool, tone=None) -> np.nd
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
     evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, CAP_RAMP * nf.r, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out, nf.smooth, nf.bw)
-    if tone is not None:
-        out = np.interp(out, tone[:, 0], tone[:, 1]).astype(np.float32)
+    out = apply_tone_curve(out, tone)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
     return out
