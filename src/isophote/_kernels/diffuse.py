@@ -356,6 +356,19 @@ def _pchip_slope(s_here, w_here, s_next, w_next):
 
 
 @njit(cache=True, nogil=True)
+def _cubic(v0, v1, m0, m1, w, t):
+    """The cubic Hermite curve over a stretch of length w, from v0 (slope m0) to v1 (slope
+    m1), at t in [0, 1]."""
+    t2 = t * t
+    t3 = t2 * t
+    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
+    h10 = t3 - 2.0 * t2 + t
+    h01 = -2.0 * t3 + 3.0 * t2
+    h11 = t3 - t2
+    return v0 * h00 + w * m0 * h10 + v1 * h01 + w * m1 * h11
+
+
+@njit(cache=True, nogil=True)
 def _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1):
     """G1 fill between the lower isoline (distance d0, value v0) and the upper one (d1, v1):
     the cubic Hermite profile whose slopes at the isolines blend this band's slope with the
@@ -367,14 +380,7 @@ def _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1):
     wh, dh = _across(bw, nband, b + 1, x, y, sx1, sy1, d1)
     m0 = _pchip_slope(sl, w, dl / wl if wl > 0.0 else 0.0, wl)
     m1 = _pchip_slope(sl, w, dh / wh if wh > 0.0 else 0.0, wh)
-    t = d0 / w
-    t2 = t * t
-    t3 = t2 * t
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
-    h10 = t3 - 2.0 * t2 + t
-    h01 = -2.0 * t3 + 3.0 * t2
-    h11 = t3 - t2
-    return v0 * h00 + w * m0 * h10 + v1 * h01 + w * m1 * h11
+    return _cubic(v0, v1, m0, m1, w, d0 / w)
 
 
 @njit(cache=True, nogil=True)
@@ -390,10 +396,7 @@ def _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm
         wn, dn = _across(bw, nband, b + 1, x, y, sx1, sy1, d)
         sn = -dn / wn if wn > 0.0 else 0.0
     m0 = _pchip_slope(s_cap, dm, sn, wn)
-    t = d / dm
-    t2 = t * t
-    t3 = t2 * t
-    return lvl * (2.0 * t3 - 3.0 * t2 + 1.0) + dm * m0 * (t3 - 2.0 * t2 + t) + cv * (-2.0 * t3 + 3.0 * t2)
+    return _cubic(lvl, cv, m0, 0.0, dm, d / dm)
 
 
 @njit(cache=True, nogil=True)
