@@ -14,6 +14,12 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
+def _row_of(y, n_rows):
+    """The half-pixel row (y in [k/2, (k+1)/2]) a query at height y looks along, clamped."""
+    return min(max(int(np.floor(y * 2.0)), 0), n_rows - 1)
+
+
+@njit(cache=True, nogil=True)
 def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, row_order,
                         area, level, n_rows):
     """For each query point (px[q], py[q]) the innermost loop enclosing it, -1 if none.
@@ -28,11 +34,7 @@ def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, ro
     stamp = np.full(nloops, -1, np.int64)  # query that last listed the loop in `touched`
     out = np.full(nq, -1, np.int64)
     for q in range(nq):
-        k = int(np.floor(py[q] * 2.0))
-        if k < 0:
-            k = 0
-        if k >= n_rows:
-            k = n_rows - 1
+        k = _row_of(py[q], n_rows)
         nt = 0
         for a in range(row_start[k], row_start[k + 1]):
             s = row_order[a]
@@ -185,12 +187,7 @@ def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_star
         return out
     kq = np.empty(nq, np.int64)
     for q in range(nq):
-        k = int(np.floor(py[q] * 2.0))
-        if k < 0:
-            k = 0
-        if k >= n_rows:
-            k = n_rows - 1
-        kq[q] = k
+        kq[q] = _row_of(py[q], n_rows)
     # queries by row, then y, then x
     o = np.argsort(px, kind="mergesort")
     o = o[np.argsort(py[o], kind="mergesort")]

@@ -289,6 +289,19 @@ def march_ref(vals, band, levels):
 
 
 @njit(cache=True, nogil=True)
+def _eps_grad(grid, grid_eps, grad, r, c):
+    """(error, |grad|) of padded sample (r, c); (0, 0) on the padding ring. |grad| is
+    computed once per sample and kept in grad (negative = not yet)."""
+    hp = grid.shape[0] + 2
+    wp = grid.shape[1] + 2
+    if r == 0 or c == 0 or r == hp - 1 or c == wp - 1:
+        return 0.0, 0.0
+    if grad[r - 1, c - 1] < 0.0:
+        grad[r - 1, c - 1] = _grad_at(grid, r - 1, c - 1)
+    return grid_eps[r - 1, c - 1], grad[r - 1, c - 1]
+
+
+@njit(cache=True, nogil=True)
 def _grad_at(grid, r, c):
     """|grad| of the (unpadded) grid at sample (r, c): np.gradient(grid, 0.5) and hypot,
     as encoder/ribbon.py's gradient_magnitude."""
@@ -401,22 +414,8 @@ def march_loops(vals, band, levels, grid, grid_eps):
                 buf_f[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
                 buf_f[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
                 buf_f[m, 2] = tt
-                if rb == 0 or cb == 0 or rb == hp - 1 or cb == wp - 1:
-                    buf_f[m, 3] = 0.0
-                    buf_f[m, 5] = 0.0
-                else:
-                    buf_f[m, 3] = grid_eps[rb - 1, cb - 1]
-                    if grad[rb - 1, cb - 1] < 0.0:
-                        grad[rb - 1, cb - 1] = _grad_at(grid, rb - 1, cb - 1)
-                    buf_f[m, 5] = grad[rb - 1, cb - 1]
-                if ra == 0 or ca == 0 or ra == hp - 1 or ca == wp - 1:
-                    buf_f[m, 4] = 0.0
-                    buf_f[m, 6] = 0.0
-                else:
-                    buf_f[m, 4] = grid_eps[ra - 1, ca - 1]
-                    if grad[ra - 1, ca - 1] < 0.0:
-                        grad[ra - 1, ca - 1] = _grad_at(grid, ra - 1, ca - 1)
-                    buf_f[m, 6] = grad[ra - 1, ca - 1]
+                buf_f[m, 3], buf_f[m, 5] = _eps_grad(grid, grid_eps, grad, rb, cb)
+                buf_f[m, 4], buf_f[m, 6] = _eps_grad(grid, grid_eps, grad, ra, ca)
                 buf_i[m, 0] = b
                 buf_i[m, 1] = ab
                 buf_i[m, 2] = brd
