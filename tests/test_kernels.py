@@ -237,13 +237,9 @@ def test_cap_sums_far_from_edges_and_without_edges():
 # ---------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-def test_innermost_enclosing_matches_its_twin(seed):
-    rng = np.random.default_rng(200 + seed)
-    w, h = 30.0, 20.0
-    loops = nested_loops(rng, w, h)
-    area = np.array([shoelace(p) for p in loops])
-    level = rng.integers(0, 5, size=len(loops)).astype(np.int64)
+def loop_segments(loops, h):
+    """The loops' segments, split at half rows, as the hierarchy holds them: (x0, y0, x1, y1,
+    seg_loop, row, n_rows), row being each segment's half-pixel row."""
     split = [split_at_half_rows(p) for p in loops]
     x0 = np.concatenate([p[:, 0] for p in split])
     y0 = np.concatenate([p[:, 1] for p in split])
@@ -252,6 +248,17 @@ def test_innermost_enclosing_matches_its_twin(seed):
     seg_loop = np.concatenate([np.full(len(p), k) for k, p in enumerate(split)]).astype(np.int64)
     n_rows = int(2 * h) + 1
     row = np.clip(np.floor(np.minimum(y0, y1) * 2).astype(np.int64), 0, n_rows - 1)
+    return x0, y0, x1, y1, seg_loop, row, n_rows
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_innermost_enclosing_matches_its_twin(seed):
+    rng = np.random.default_rng(200 + seed)
+    w, h = 30.0, 20.0
+    loops = nested_loops(rng, w, h)
+    area = np.array([shoelace(p) for p in loops])
+    level = rng.integers(0, 5, size=len(loops)).astype(np.int64)
+    x0, y0, x1, y1, seg_loop, row, n_rows = loop_segments(loops, h)
     assert np.all(np.maximum(y0, y1) <= (row + 1) / 2 + 1e-12)  # one row per segment
     row_order = np.argsort(row, kind="stable")
     row_start = np.searchsorted(row[row_order], np.arange(n_rows + 1))
@@ -289,14 +296,7 @@ def test_innermost_enclosing_rows_equals_rays(seed):
     loops = [p[np.any(p != np.roll(p, 1, axis=0), axis=1)] for p in loops]
     area = np.array([shoelace(p) for p in loops])
     level = rng.integers(0, 3, size=len(loops)).astype(np.int64)
-    split = [split_at_half_rows(p) for p in loops]
-    x0 = np.concatenate([p[:, 0] for p in split])
-    y0 = np.concatenate([p[:, 1] for p in split])
-    x1 = np.concatenate([np.roll(p[:, 0], -1) for p in split])
-    y1 = np.concatenate([np.roll(p[:, 1], -1) for p in split])
-    seg_loop = np.concatenate([np.full(len(p), k) for k, p in enumerate(split)]).astype(np.int64)
-    n_rows = int(2 * h) + 1
-    row = np.clip(np.floor(np.minimum(y0, y1) * 2).astype(np.int64), 0, n_rows - 1)
+    x0, y0, x1, y1, seg_loop, row, n_rows = loop_segments(loops, h)
     row_start, row_order = bucket_rows(row, n_rows)
     assert np.array_equal(row_order, np.argsort(row, kind="stable"))
     assert np.array_equal(row_start, np.searchsorted(row[row_order], np.arange(n_rows + 1)))

@@ -23,13 +23,17 @@ def images():
     }
 
 
-@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
-def test_sweep_parents_equal_ray_parents(name):
+def traced(name):
+    """The image's isolines at levels every 10, their hierarchy and their segment table."""
     levels = preset_levels(10)
     g, ge = map_pixels(images()[name], 0.5)
     iso = find_isolines(g, ge, levels)
-    h = build_hierarchy(iso, levels)
-    x0, y0, x1, y1, seg_loop, rs, ro, n_rows = segment_table(iso)
+    return iso, build_hierarchy(iso, levels), segment_table(iso)
+
+
+@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
+def test_sweep_parents_equal_ray_parents(name):
+    iso, h, (x0, y0, x1, y1, seg_loop, rs, ro, n_rows) = traced(name)
     cand = np.flatnonzero(~iso.border & (y0 != y1))
     loops, first = np.unique(seg_loop[cand], return_index=True)
     q = cand[first]
@@ -45,11 +49,7 @@ def test_sweep_parents_equal_ray_parents(name):
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_cap_contours_by_rows_equal_rays(name):
     """The caps' enclosing contours (innermost_enclosing_rows) are the ray query's."""
-    levels = preset_levels(10)
-    g, ge = map_pixels(images()[name], 0.5)
-    iso = find_isolines(g, ge, levels)
-    h = build_hierarchy(iso, levels)
-    x0, y0, x1, y1, seg_loop, rs, ro, n_rows = segment_table(iso)
+    iso, h, (x0, y0, x1, y1, seg_loop, rs, ro, n_rows) = traced(name)
     ref = innermost_enclosing(
         h.cap_xy[:, 0].copy(), h.cap_xy[:, 1].copy(), np.full(len(h.cap_xy), -1, np.int64),
         x0, y0, x1, y1, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
