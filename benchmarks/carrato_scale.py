@@ -2,7 +2,9 @@
 
 Each corpus photograph (luma) is decimated 2x (even rows and columns kept); the mapped grid
 of the small image then predicts the dropped samples (its midpoints sit exactly on them).
-Prints the RMS prediction error for several units; "linear" is p = 0.
+Prints the RMS prediction error for several units on the paper's linear base (cubic = 0);
+"linear" is p = 0; the last two columns put the units' best on the cubic base of
+encoder/mapping.py (cubic = 1), with p = 0 and with p = 0.5.
 
     .venv/bin/python benchmarks/carrato_scale.py
 """
@@ -16,10 +18,10 @@ from isophote.encoder.mapping import map_pixels
 SCALES = [1.0, 4.0, 8.0, 16.0, 32.0, 64.0, 255.0]
 
 
-def prediction_rmse(y, p, scale):
+def prediction_rmse(y, p, scale, cubic=0.0):
     small = y[::2, ::2]
     h, w = small.shape
-    g, _ = map_pixels(small, 0.5, p, scale)
+    g, _ = map_pixels(small, 0.5, p, scale, cubic)
     g = g[1:-1, 1:-1]  # drop the border ring: g[2i, 2j] is small[i, j]
     truth = y[: 2 * h - 1, : 2 * w - 1]
     mask = np.ones_like(truth, bool)
@@ -32,8 +34,9 @@ def main():
     rows = {}
     for name, img in corpus.items():
         y = rgb_to_yuv(img.astype(float))[..., 0] if img.ndim == 3 else img.astype(float)
-        rows[name] = [prediction_rmse(y, 0.0, 1.0)] + [prediction_rmse(y, 0.5, s) for s in SCALES]
-    head = ["image", "linear"] + [f"unit {s:g}" for s in SCALES]
+        rows[name] = ([prediction_rmse(y, 0.0, 1.0)] + [prediction_rmse(y, 0.5, s) for s in SCALES]
+                      + [prediction_rmse(y, 0.0, 64.0, 1.0), prediction_rmse(y, 0.5, 64.0, 1.0)])
+    head = ["image", "linear"] + [f"unit {s:g}" for s in SCALES] + ["cubic", "cubic, unit 64"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for name, vals in rows.items():

@@ -102,7 +102,8 @@ def stage_times(img: np.ndarray, repeat: int) -> dict:
                 return out
             levels = channel_levels(name, opts)
             plane, eps = timed("prepare", prepare_plane, name, yuv[..., i], 0.5, levels, opts)
-            grid, grid_eps = timed("map", map_pixels, plane, eps, opts.carrato_p, opts.carrato_scale)
+            grid, grid_eps = timed("map", map_pixels, plane, eps, opts.carrato_p, opts.carrato_scale,
+                                     opts.carrato_cubic)
             iso = timed("isolines", find_isolines, grid, grid_eps, levels, opts.min_tolerance,
                         opts.max_tolerance)
             timed("fit", fit_isolines, iso, opts.snap)

@@ -44,7 +44,8 @@ def centres(h, w):
 def isolines_of(img, levels, eps=0.5):
     """The isolines of a float image, through the encoder's own mapping (default options)."""
     o = EncodeOptions().resolved()
-    grid, grid_eps = map_pixels(np.asarray(img, np.float64), eps, o.carrato_p, o.carrato_scale)
+    grid, grid_eps = map_pixels(np.asarray(img, np.float64), eps, o.carrato_p, o.carrato_scale,
+                                  o.carrato_cubic)
     return find_isolines(grid, grid_eps, np.asarray(levels, np.float64), o.min_tolerance, o.max_tolerance)
 
 
