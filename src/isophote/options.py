@@ -11,25 +11,24 @@ from dataclasses import dataclass, fields, replace
 from .errors import OptionError
 
 # Presets: the values of the fields left at None. Measured on the five corpus photographs
-# (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, bytes as the .isoph
-# coding stood on 2026-11-22):
+# (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, .isoph format v2):
 #   paper    §1 of the paper: Y every 10 around 127.5 (25 levels), U and V every 5 (49), one
 #            global sample error (the quantisation error), no pruning, ribbon <= 0.5 px.
-#            2.90 x PNG, PSNR 40.4 dB, SSIMULACRA2 72.7, FLIP 0.039; 148k segments.
+#            2.80 x PNG, PSNR 40.7 dB, SSIMULACRA2 73.4, FLIP 0.038; 135k segments.
 #   compact  the paper's levels, with a per-pixel eps of 3 x the local noise deviation
 #            (encoder/noise.py; capped at 0.4 level spacings), a ribbon of up to 1 px, and the
 #            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py).
-#            1.47 x PNG, 38.2 dB, SSIMULACRA2 70.3 ("high quality"), FLIP 0.048; 53k segments.
+#            1.44 x PNG, 38.3 dB, SSIMULACRA2 70.8 ("high quality"), FLIP 0.048; 51k segments.
 #   high     levels every 3 in Y, U and V; the same noise model, chroma pruning within 1 eps.
-#            5.84 x PNG, 44.9 dB, SSIMULACRA2 89.2, FLIP 0.023; 262k segments.
+#            5.63 x PNG, 45.0 dB, SSIMULACRA2 89.2, FLIP 0.023; 242k segments.
 # What the measurements said: the noise-aware ribbon halves the segments for 0.3-1 point of
 # SSIMULACRA2; pruning pays in chroma (astronaut: -32 % segments for -2.4 points) but not in
 # luma (-9 % segments for -7 points: the small Y loops are texture, which SSIMULACRA2 sees),
 # so no preset prunes Y. SSIMULACRA2 tops out near 89 on astronaut and rocket even with
 # levels every 2 (7-10 x PNG): past that, the render, not the contours, limits "high".
 #
-# The default is "paper". "compact" halves the bytes, but at about 2.5 dB and 2.5 points of
-# SSIMULACRA2 less (FLIP 0.057 against 0.042 on astronaut): in rate-distortion terms neither
+# The default is "paper". "compact" halves the bytes, but at 2.4 dB and 2.6 points of
+# SSIMULACRA2 less (FLIP 0.048 against 0.038): in rate-distortion terms neither
 # dominates, and isophote's first use is a master that every delivery size is rendered from,
 # where fidelity comes first. "paper" is also the setting the decoder's targets and the
 # paper's figures are stated at. Ask for "compact" to edit (a third of the segments) or to
