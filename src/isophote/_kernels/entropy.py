@@ -272,12 +272,18 @@ def _finish(st, out):
 
 
 @njit(cache=True, nogil=True)
-def encode_ints(values, models, signed):
-    """Code values[i] (int64) with integer model models[i]; signed or unsigned."""
+def _int_probs(models):
+    """Fresh probabilities for integer models 0 .. max(models)."""
     nm = 0
     for i in range(models.shape[0]):
         nm = max(nm, models[i] + 1)
-    probs = np.full(2 * max(nm, 1) * MODEL_SLOTS, PROB_INIT, np.int32)
+    return np.full(2 * max(nm, 1) * MODEL_SLOTS, PROB_INIT, np.int32)
+
+
+@njit(cache=True, nogil=True)
+def encode_ints(values, models, signed):
+    """Code values[i] (int64) with integer model models[i]; signed or unsigned."""
+    probs = _int_probs(models)
     st = np.array([0, 0xFFFFFFFF, 0, 1, 0], np.int64)
     out = np.empty(64, np.uint8)
     for i in range(values.shape[0]):
@@ -293,10 +299,7 @@ def encode_ints(values, models, signed):
 @njit(cache=True, nogil=True)
 def decode_ints(inp, models, signed):
     """The inverse of encode_ints; returns (values, status) with status OK, E_SHORT or E_LONG."""
-    nm = 0
-    for i in range(models.shape[0]):
-        nm = max(nm, models[i] + 1)
-    probs = np.full(2 * max(nm, 1) * MODEL_SLOTS, PROB_INIT, np.int32)
+    probs = _int_probs(models)
     ds = _dec_init(inp)
     values = np.empty(models.shape[0], np.int64)
     for i in range(models.shape[0]):
