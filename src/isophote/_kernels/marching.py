@@ -76,9 +76,9 @@ def pad_bands(grid, levels):
 def _march_cells(vals, band, levels):
     """The segments of every cell and level (the kernel of the module docstring), in scan
     order, with what linking needs. Per segment: its cell
-    (r (wp - 1) + c), level, start and end edge; rec[s] = (next segment, to be filled by the
-    caller; start key; below sample; above sample; 2 level + border flag) and t. Segments
-    of cell k are cell_start[k]:cell_start[k+1]."""
+    (r (wp - 1) + c), level, start and end edge; rec[s] = (free for the caller; start key;
+    below sample; above sample; 2 level + border flag) and t. Segments of cell k are
+    cell_start[k]:cell_start[k+1]."""
     hp, wp = vals.shape
     nl = levels.shape[0]
     ncell = (hp - 1) * (wp - 1)
@@ -289,19 +289,6 @@ def march_ref(vals, band, levels):
 
 
 @njit(cache=True, nogil=True)
-def _eps_grad(grid, grid_eps, grad, r, c):
-    """(error, |grad|) of padded sample (r, c); (0, 0) on the padding ring. |grad| is
-    computed once per sample and kept in grad (negative = not yet)."""
-    hp = grid.shape[0] + 2
-    wp = grid.shape[1] + 2
-    if r == 0 or c == 0 or r == hp - 1 or c == wp - 1:
-        return 0.0, 0.0
-    if grad[r - 1, c - 1] < 0.0:
-        grad[r - 1, c - 1] = _grad_at(grid, r - 1, c - 1)
-    return grid_eps[r - 1, c - 1], grad[r - 1, c - 1]
-
-
-@njit(cache=True, nogil=True)
 def _grad_at(grid, r, c):
     """|grad| of the (unpadded) grid at sample (r, c): np.gradient(grid, 0.5) and hypot,
     as encoder/ribbon.py's gradient_magnitude."""
@@ -337,7 +324,11 @@ def march_loops(vals, band, levels, grid, grid_eps):
     hp, wp = vals.shape
     hg, wg = grid.shape
     n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
-    # link: the segment after s starts on s's end edge, in the cell across it, same level
+    # link: the segment after s starts on s's end edge, in the cell across it, same level.
+    # The links go to a compact array of their own: walking the loops chases them one
+    # dependent load after another, in an order that jumps a row of cells at every
+    # vertical step, so the fewer bytes they span the fewer cache misses.
+    nxt = np.empty(n, np.int64)
     ok = True
     for s in range(n):
         cell = s_cell[s]
@@ -352,7 +343,7 @@ def march_loops(vals, band, levels, grid, grid_eps):
             r += 1
         else:
             c -= 1
-        rec[s, 0] = -1
+        nxt[s] = -1
         if r < 0 or c < 0 or r >= hp - 1 or c >= wp - 1:
             ok = False
             break
@@ -360,83 +351,93 @@ def march_loops(vals, band, levels, grid, grid_eps):
         want = (eb + 2) % 4
         for s2 in range(cell_start[other], cell_start[other + 1]):
             if s_lev[s2] == s_lev[s] and s_ea[s2] == want:
-                rec[s, 0] = s2
+                nxt[s] = s2
                 break
-        if rec[s, 0] < 0:
+        if nxt[s] < 0:
             ok = False
             break
-    # what only linking needed goes (memory: about 140 bytes a segment remain at peak)
+    # rec[:, 0] takes t (its bits), so that the gathers below find a segment's data on one
+    # cache line
+    rec_f = rec.view(np.float64)
+    for s in range(n):
+        rec_f[s, 0] = s_t[s]
+    s_t = s_t[:0].copy()
+    # what only linking needed goes (memory: about 150 bytes a segment remain at peak)
     s_cell = s_cell[:0].copy()
     s_lev = s_lev[:0].copy()
     s_ea = s_ea[:0].copy()
     s_eb = s_eb[:0].copy()
     cell_start = cell_start[:0].copy()
-    # |grad| of the samples next to a crossing, each computed once (-1: not yet)
-    grad = np.full((hg, wg), -1.0)
-    # walk each loop once (from its first segment in scan order), writing its points in
-    # travel order to a buffer, and note its smallest start key, where that is, its length
-    # and whether it has an isoline segment
-    seen = np.zeros(n, np.bool_)
-    lp_key = np.empty(n, np.int64)
-    lp_at = np.empty(n, np.int64)
+    # walk each loop once (from its first segment in scan order), following the links
+    # alone and noting the segments in travel order (a visited segment's link becomes -1)
+    trav = np.empty(n if ok else 0, np.int64)
     lp_start = np.empty(n + 1, np.int64)
-    lp_inner = np.empty(n, np.bool_)
-    lp_lev = np.empty(n, np.int64)
     lp_start[0] = 0
-    buf_f = np.empty((n if ok else 0, 7))  # x, y, t, eps below, eps above, grad below, grad above
-    buf_i = np.empty((n if ok else 0, 3), np.int64)  # below, above, border
     n_loops = 0
     m = 0
     if ok:
         for s0 in range(n):
-            if seen[s0]:
+            if nxt[s0] < 0:
                 continue
-            bkey = -1
-            at = 0
-            inner = False
             j = s0
-            while not seen[j]:
-                seen[j] = True
-                key = rec[j, 1]
-                if bkey < 0 or key < bkey:
-                    bkey = key
-                    at = m - lp_start[n_loops]
-                b = rec[j, 2]
-                ab = rec[j, 3]
-                brd = rec[j, 4] & 1
-                inner = inner or brd == 0
-                tt = s_t[j]
-                rb = b // wp
-                cb = b - rb * wp
-                ra = ab // wp
-                ca = ab - ra * wp
-                # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
-                buf_f[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
-                buf_f[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
-                buf_f[m, 2] = tt
-                buf_f[m, 3], buf_f[m, 5] = _eps_grad(grid, grid_eps, grad, rb, cb)
-                buf_f[m, 4], buf_f[m, 6] = _eps_grad(grid, grid_eps, grad, ra, ca)
-                buf_i[m, 0] = b
-                buf_i[m, 1] = ab
-                buf_i[m, 2] = brd
+            while nxt[j] >= 0:
+                trav[m] = j
                 m += 1
-                j = rec[j, 0]
+                jn = nxt[j]
+                nxt[j] = -1
+                j = jn
             if j != s0:
                 ok = False
                 break
-            lp_key[n_loops] = bkey
-            lp_at[n_loops] = at
-            lp_inner[n_loops] = inner
-            lp_lev[n_loops] = rec[s0, 4] >> 1
             n_loops += 1
             lp_start[n_loops] = m
     if not ok:
         n_loops = 0
+    nxt = nxt[:0].copy()
+    # per loop: its smallest start key, where that is, and whether it has an isoline
+    # segment; the segments' t, samples and flags are copied to a buffer in travel order on
+    # the way (gathers in travel order are independent loads, unlike the walk)
+    lp_key = np.empty(n_loops, np.int64)
+    lp_at = np.empty(n_loops, np.int64)
+    lp_inner = np.empty(n_loops, np.bool_)
+    lp_lev = np.empty(n_loops, np.int64)
+    tb = np.empty((m if ok else 0, 4), np.int64)  # t (bits), below, above, 2 level + border
+    for a in range(n_loops):
+        o = lp_start[a]
+        bkey = rec[trav[o], 1]
+        at = 0
+        inner = False
+        for k in range(lp_start[a + 1] - o):
+            j = trav[o + k]
+            key = rec[j, 1]
+            if key < bkey:
+                bkey = key
+                at = k
+            tb[o + k, 0] = rec[j, 0]
+            tb[o + k, 1] = rec[j, 2]
+            tb[o + k, 2] = rec[j, 3]
+            tb[o + k, 3] = rec[j, 4]
+            inner = inner or (rec[j, 4] & 1) == 0
+        lp_key[a] = bkey
+        lp_at[a] = at
+        lp_inner[a] = inner
+        lp_lev[a] = tb[o, 3] >> 1
     rec = rec[:0].copy()
-    s_t = s_t[:0].copy()
-    grad = grad[:0].copy()
-    # the kept loops in order of their smallest start key, each rotated to start there
-    order = np.argsort(lp_key[:n_loops])
+    trav = trav[:0].copy()
+    tb_f = tb.view(np.float64)
+    # sample errors and |grad| (as encoder/ribbon.py's gradient_magnitude) of every sample,
+    # side by side, on the padded grid with 0 on the ring, gathered below by flat padded index
+    eg = np.zeros((hp * wp, 2))
+    if n_loops > 0:
+        for r in range(hg):
+            for c in range(wg):
+                a = (r + 1) * wp + c + 1
+                eg[a, 0] = grid_eps[r, c]
+                eg[a, 1] = _grad_at(grid, r, c)
+    # the kept loops in order of their smallest start key, each rotated to start there;
+    # per point, in travel order: (x, y), the border flag of the segment it starts, its
+    # below and above samples, t, and the errors and gradients at those samples
+    order = np.argsort(lp_key)
     n_out = 0
     n_kept = 0
     for a in range(n_loops):
@@ -472,16 +473,24 @@ def march_loops(vals, band, levels, grid, grid_eps):
             src = o + lp_at[lp] + k
             if src >= o + length:
                 src -= length
-            points[m, 0] = buf_f[src, 0]
-            points[m, 1] = buf_f[src, 1]
-            t[m] = buf_f[src, 2]
-            eps_b[m] = buf_f[src, 3]
-            eps_a[m] = buf_f[src, 4]
-            grad_b[m] = buf_f[src, 5]
-            grad_a[m] = buf_f[src, 6]
-            below[m] = buf_i[src, 0]
-            above[m] = buf_i[src, 1]
-            border[m] = buf_i[src, 2] != 0
+            b = tb[src, 1]
+            ab = tb[src, 2]
+            tt = tb_f[src, 0]
+            rb = b // wp
+            cb = b - rb * wp
+            ra = ab // wp
+            ca = ab - ra * wp
+            # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
+            points[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
+            points[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
+            t[m] = tt
+            eps_b[m] = eg[b, 0]
+            eps_a[m] = eg[ab, 0]
+            grad_b[m] = eg[b, 1]
+            grad_a[m] = eg[ab, 1]
+            below[m] = b
+            above[m] = ab
+            border[m] = (tb[src, 3] & 1) != 0
             m += 1
         kl += 1
         offsets[kl] = m
