@@ -254,6 +254,42 @@ def test_rgb_render_shapes_and_colour():
     assert render(vi, scale=2).shape == (32, 48, 3)
 
 
+@pytest.mark.parametrize("depth", [8, 16])
+@pytest.mark.parametrize("alpha", [False, True])
+def test_fused_colour_kernel_matches_the_numpy_path(depth, alpha):
+    from isophote.colour import YUV_TO_RGB
+    from isophote.render import _colour, quantise
+    from isophote._kernels.colour import yuv_quantise
+
+    rng = np.random.default_rng(depth + alpha)
+    # out of gamut and out of range on purpose: both clip
+    planes = {k: rng.uniform(-40, 300, (37, 53)).astype(np.float32) for k in ("Y", "U", "V")}
+    if alpha:
+        planes["A"] = rng.uniform(-10, 270, (37, 53)).astype(np.float32)
+    vi = type("V", (), {"colour": "yuv"})()
+    want = quantise(_colour(vi, planes), depth)
+    got = np.empty_like(want)
+    yuv_quantise(planes["Y"], planes["U"], planes["V"], planes.get("A", np.empty((0, 0), np.float32)),
+                 YUV_TO_RGB, 257.0 if depth == 16 else 1.0, got)
+    assert got.dtype == want.dtype and got.shape == (37, 53, 4 if alpha else 3)
+    # the matrix product may round its last bit differently: a sample exactly half-way between
+    # two codes may go either way, nothing more
+    assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
+    assert np.mean(got != want) < 1e-3
+    assert got.min() == 0 and got.max() == (65535 if depth == 16 else 255)
+
+
+def test_sections_and_strips_join_seamlessly(wavy, monkeypatch):
+    import isophote.render as R
+
+    whole = render_float(wavy, scale=3)
+    monkeypatch.setattr(R, "STRIP_ROWS", 7)
+    # 144 x 96 output: sections of 14 rows (two strips), the last one of 12 (strips of 7 and 5)
+    monkeypatch.setattr(R, "SECTION_PIXELS", 144 * 16)
+    assert np.array_equal(render_float(wavy, scale=3), whole)
+    assert np.array_equal(render(wavy, scale=3), R.quantise(whole, 8)[..., 0])
+
+
 @pytest.mark.parametrize(
     "options",
     [

@@ -28,6 +28,15 @@ its plateau (zero slope). Measured on the corpus at 1x (mean PSNR / SSIMULACRA2 
 linear 40.20 / 71.9 / 0.0413, G1 40.39 / 72.7 / 0.0391; PROBE 0.5 beat 0.05, 0.25 and 1.25.
 Fill "linear" keeps the paper's formula.
 
+Shortcut at enlargements: a sample whose four surrounding nodes share its band
+lies in a cell no isoline crosses, and takes the bilinear interpolation of the four nodes'
+fill values; only samples in cells an isoline crosses are evaluated exactly. Against exact
+evaluation everywhere (astronaut and camera, 2x to 7.5x): 61.7-62.6 dB, with differences
+above 2 grey levels on 0.003-0.007 % of the pixels, where a band's fill has a crease (the
+medial axis between two sources of one side) that the bilinear cell rounds off. Render time
+at 3840 wide about halved. (Until 2026-11 the shortcut also asked every node to lie 2.5
+nodes from every source, which left half the cells to exact evaluation.)
+
 Caps: a region (8-connected nodes of one band) with sources on one side only is a peak or a
 pit, rendered with the cap profile of model.py: C = L + (v_cap - L) * min(1, d / min(d_max,
 ramp)), d_max being the region's largest distance from its contour. A region with no source
@@ -50,8 +59,8 @@ from .regions import _find
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
-FAR = 2.5  # node units, see _far()
 PROBE = 0.5  # node units past an isoline where the neighbouring band is read (_across)
+SEED_TILE = 64  # nodes a side of the tiles seed() visits
 HALF = 0.25  # node units; measured at 1x (astronaut, coffee; PSNR dB / FLIP): 0 39.54/0.0466 39.33/0.0452, 0.25 39.58/0.0468 39.36/0.0453, 0.75 39.52/0.0474 39.34/0.0458, 1.0 39.29/0.0479 39.08/0.0465
 
 _OFFS = {
@@ -133,24 +142,28 @@ def seed(band, H, Vc, levels, mode):
     # F[side, field, i, j] through a transposed view
     F = np.zeros((nr, nc, 2, NF), np.float32).transpose((2, 3, 0, 1))
     F[:, D] = np.inf
-    for i in range(nr):
-        yc = i + 0.5
-        for j in range(nc):
-            xc = j + 0.5
-            if hfd[i, j + 1] != 0:  # right, moving right
-                tx, ty = _unit(hfs[i, j + 1], 1.0)
-                _offer_crossing(F, band, levels, i, j, hfx[i, j + 1], yc, tx, ty, hfd[i, j + 1] > 0, mode)
-            if hld[i, j] != 0:  # left, moving left
-                tx, ty = _unit(hls[i, j], 1.0)
-                _offer_crossing(F, band, levels, i, j, hlx[i, j], yc, tx, ty, hld[i, j] < 0, mode)
-            # the column crossings come from the transposed (mirrored) geometry, whose winding
-            # is the negated band: moving down, the band rises where their winding falls
-            if vfd[j, i + 1] != 0:  # below, moving down
-                tx, ty = _unit(1.0, vfs[j, i + 1])
-                _offer_crossing(F, band, levels, i, j, xc, vfx[j, i + 1], tx, ty, vfd[j, i + 1] < 0, mode)
-            if vld[j, i] != 0:  # above, moving up
-                tx, ty = _unit(1.0, vls[j, i])
-                _offer_crossing(F, band, levels, i, j, xc, vlx[j, i], tx, ty, vld[j, i] > 0, mode)
+    # every offer writes only its own node, so the visiting order does not matter: tiles keep
+    # the column arrays (stored transposed) in cache
+    for ti in range(0, nr, SEED_TILE):
+        for tj in range(0, nc, SEED_TILE):
+            for i in range(ti, min(ti + SEED_TILE, nr)):
+                yc = i + 0.5
+                for j in range(tj, min(tj + SEED_TILE, nc)):
+                    xc = j + 0.5
+                    if hfd[i, j + 1] != 0:  # right, moving right
+                        tx, ty = _unit(hfs[i, j + 1], 1.0)
+                        _offer_crossing(F, band, levels, i, j, hfx[i, j + 1], yc, tx, ty, hfd[i, j + 1] > 0, mode)
+                    if hld[i, j] != 0:  # left, moving left
+                        tx, ty = _unit(hls[i, j], 1.0)
+                        _offer_crossing(F, band, levels, i, j, hlx[i, j], yc, tx, ty, hld[i, j] < 0, mode)
+                    # the column crossings come from the transposed (mirrored) geometry, whose
+                    # winding is the negated band: moving down, the band rises where theirs falls
+                    if vfd[j, i + 1] != 0:  # below, moving down
+                        tx, ty = _unit(1.0, vfs[j, i + 1])
+                        _offer_crossing(F, band, levels, i, j, xc, vfx[j, i + 1], tx, ty, vfd[j, i + 1] < 0, mode)
+                    if vld[j, i] != 0:  # above, moving up
+                        tx, ty = _unit(1.0, vls[j, i])
+                        _offer_crossing(F, band, levels, i, j, xc, vlx[j, i], tx, ty, vld[j, i] > 0, mode)
     return F
 
 
@@ -290,13 +303,6 @@ def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
 
 
 @njit(cache=True, nogil=True)
-def _far(F, i, j):
-    """Is node (i, j) at least FAR from every source (and not on a cap's ramp)? There the fill
-    is smooth, and bilinear interpolation of node values matches exact evaluation closely."""
-    return F[0, D, i, j] >= FAR and F[1, D, i, j] >= FAR
-
-
-@njit(cache=True, nogil=True)
 def band_widths(F, band, labels, dmax, capv, ramp):
     """(nr, nc, 2) float32: per node, the width of its band through it and the band's step
     (d0 + d1 and v1 - v0), or for a cap node its ramp length and rise (signed so that the
@@ -400,6 +406,19 @@ def _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm
 
 
 @njit(cache=True, nogil=True)
+def _mid(levels, b):
+    """The middle of band b's two levels (the flat fill); a band beyond the extreme levels
+    extends the nearest step, and a channel without levels (a hostile or degenerate file)
+    spans 0..255."""
+    nl = levels.shape[0]
+    if nl == 0:
+        return 127.5
+    lo_b = levels[b - 1] if b >= 1 else levels[0] - (levels[1] - levels[0] if nl > 1 else 10.0)
+    hi_b = levels[b] if b < nl else levels[nl - 1] + (levels[nl - 1] - levels[nl - 2] if nl > 1 else 10.0)
+    return 0.5 * (lo_b + hi_b)
+
+
+@njit(cache=True, nogil=True)
 def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth, bw):
     """Fill values at target samples.
 
@@ -407,8 +426,8 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
     labels, dmax, capv: node regions and their cap data (label_nodes, region_caps); ramp: the
     cap ramp in node units. nv: the fill at the nodes themselves (this function applied to
     the node grid), or an empty array: a sample whose four surrounding nodes all share its
-    band and lie FAR from every source interpolates them bilinearly, the others are
-    evaluated exactly.
+    band interpolates them bilinearly (no isoline crosses that cell; module docstring), the
+    others are evaluated exactly.
     out (n, m) float32 receives the values.
     smooth: G1 profiles (fill "diffusion") with bw = band_widths(...), else straight lines
     (fill "linear"; bw unused).
@@ -429,14 +448,8 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 b = 0
             elif b > nl:
                 b = nl
-            if nl == 0:  # a channel without levels (a hostile or degenerate file): no bands
-                lo_b, hi_b = 0.0, 255.0
-            else:
-                lo_b = levels[b - 1] if b >= 1 else levels[0] - (levels[1] - levels[0] if nl > 1 else 10.0)
-                hi_b = levels[b] if b < nl else levels[nl - 1] + (levels[nl - 1] - levels[nl - 2] if nl > 1 else 10.0)
-            mid = 0.5 * (lo_b + hi_b)
             if flat:
-                out[a, bcol] = mid
+                out[a, bcol] = _mid(levels, b)
                 continue
             j0 = int(np.floor(x - 0.5))
             if (use_nv and 0 <= i0 < nr and 0 <= j0 < nc and x == j0 + 0.5 and y == i0 + 0.5
@@ -446,14 +459,13 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 continue
             if use_nv and 0 <= i0 < nr - 1 and 0 <= j0 < nc - 1:
                 if (nband[i0, j0] == b and nband[i0, j0 + 1] == b
-                        and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b
-                        and _far(F, i0, j0) and _far(F, i0, j0 + 1)
-                        and _far(F, i0 + 1, j0) and _far(F, i0 + 1, j0 + 1)):
+                        and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b):
                     fx = x - (j0 + 0.5)
                     fy = y - (i0 + 0.5)
                     out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[i0, j0] + fx * nv[i0, j0 + 1])
                                     + fy * ((1.0 - fx) * nv[i0 + 1, j0] + fx * nv[i0 + 1, j0 + 1]))
                     continue
+            mid = _mid(levels, b)
             reg = -1
             reg_d = np.inf
             best_d0 = np.inf

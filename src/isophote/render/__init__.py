@@ -19,11 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..colour import yuv_to_rgb
+from ..colour import YUV_TO_RGB, yuv_to_rgb
+from .._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
 from .distance import NodeField, node_field
-from .fill import fill_strip
+from .fill import StripEdges, fill_strip
 from .flatten import flatten, segments
 
 STRIP_ROWS = 128  # output rows per strip: bounds memory at large sizes
@@ -86,7 +87,7 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
 def render_float(vi, **options) -> np.ndarray:
     """Render to float64 samples on 0..255, (H, W, C) with the image's channels in RGB(A) or
     grey(+alpha) order, unquantised. Options: the fields of RenderOptions."""
-    return _render(vi, make(RenderOptions, options), np.float64, lambda a: a)
+    return _render(vi, make(RenderOptions, options), None)
 
 
 def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
@@ -102,31 +103,67 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
     (H, W) for grey, else (H, W, C) ndarray: uint8 for depth 8, uint16 for depth 16.
     """
     opts = make(RenderOptions, dict(width=width, height=height, scale=scale, **options))
-    dtype = np.uint16 if opts.depth == 16 else np.uint8
-    out = _render(vi, opts, dtype, lambda a: quantise(a, opts.depth))
+    out = _render(vi, opts, opts.depth)
     return out[..., 0] if out.shape[2] == 1 else out
 
 
-def _render(vi, opts: RenderOptions, dtype, convert) -> np.ndarray:
-    """The pipeline, strip by strip: each strip fills every channel, converts its colour and
-    lands in the output through ``convert``, so no full-size float image is ever held."""
+SECTION_PIXELS = 1 << 24  # output pixels per section (its float32 planes: 64 MB a channel)
+
+
+def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
+    """The pipeline on two workers: the channels' distance fields, then, section by section
+    of output rows, every channel's strips into float32 planes, then each strip's colour into
+    the output (quantised to ``depth`` bits, or float64 where depth is None). A channel's
+    strips start as soon as its own field is ready, which keeps both workers busy while the
+    last field is built; sections bound the float planes held at once."""
     opts.validate()
     vp = viewport(vi, opts)
     flat = opts.fill == "flat"
     n_out = (3 if vi.colour == "yuv" else 1) + (1 if vi.has_alpha else 0)
+    dtype = np.float64 if depth is None else (np.uint16 if depth == 16 else np.uint8)
     out = np.empty((vp.out_h, vp.out_w, n_out), dtype)
+    names = [ch.name for ch in vi.channels]
     tones = {ch.name: ch.tone for ch in vi.channels}
+    sec = max(STRIP_ROWS, SECTION_PIXELS // max(vp.out_w, 1) // STRIP_ROWS * STRIP_ROWS)
     with ThreadPoolExecutor(max_workers=2) as pool:
-        fields = dict(zip((ch.name for ch in vi.channels),
-                          pool.map(lambda ch: _channel_field(vi, ch, vp, opts), vi.channels)))
+        # the queue is first in, first out: every field task has started before any strip
+        # task runs, so a strip that waits for its field waits on a running task
+        def field(ch):
+            nf = _channel_field(vi, ch, vp, opts)
+            return nf, StripEdges(nf, vp, STRIP_ROWS)
 
-        def strip(r0):
-            r1 = min(r0 + STRIP_ROWS, vp.out_h)
-            planes = {name: fill_strip(nf, vp, r0, r1, flat, tones[name]) for name, nf in fields.items()}
-            out[r0:r1] = convert(_colour(vi, planes))
+        fields = {ch.name: pool.submit(field, ch) for ch in vi.channels}
+        for s0 in range(0, vp.out_h, sec):
+            s1 = min(s0 + sec, vp.out_h)
+            planes = {name: np.empty((s1 - s0, vp.out_w), np.float32) for name in names}
 
-        list(pool.map(strip, range(0, vp.out_h, STRIP_ROWS)))
+            def fill(name, r0, s0=s0, s1=s1, planes=planes):
+                r1 = min(r0 + STRIP_ROWS, s1)
+                nf, edges = fields[name].result()
+                planes[name][r0 - s0:r1 - s0] = fill_strip(nf, vp, edges, r0, r1, flat, tones[name])
+
+            def colour(r0, s0=s0, s1=s1, planes=planes):
+                r1 = min(r0 + STRIP_ROWS, s1)
+                out[r0:r1] = _convert(vi, {n: p[r0 - s0:r1 - s0] for n, p in planes.items()}, depth)
+
+            strips = range(s0, s1, STRIP_ROWS)
+            for f in [pool.submit(fill, name, r0) for name in names for r0 in strips]:
+                f.result()
+            list(pool.map(colour, strips))
     return out
+
+
+def _convert(vi, planes, depth) -> np.ndarray:
+    """One strip's channel planes to the output's samples: quantised RGB(A) by the fused
+    kernel, or through the NumPy path (grey, and float output)."""
+    if vi.colour == "yuv" and depth is not None:
+        y = planes["Y"]
+        q = np.empty(y.shape + (4 if "A" in planes else 3,), np.uint16 if depth == 16 else np.uint8)
+        alpha = planes["A"] if "A" in planes else np.empty((0, 0), np.float32)
+        yuv_quantise(y, planes["U"], planes["V"], alpha, YUV_TO_RGB, 257.0 if depth == 16 else 1.0, q)
+        return q
+    a = _colour(vi, planes)
+    return a if depth is None else quantise(a, depth)
 
 
 def _colour(vi, planes) -> np.ndarray:

@@ -17,19 +17,45 @@ from .._kernels.diffuse import evaluate
 from .._kernels.raster import rasterise
 
 
-def fill_strip(nf, vp, out_r0: int, out_r1: int, flat: bool, tone=None) -> np.ndarray:
+class StripEdges:
+    """A channel's flattened edges in target-sample units, indexed by the strips of ``rows``
+    output rows they reach (built once per channel; each strip then rasterises only its own
+    edges, in their original order, instead of scanning all of them)."""
+
+    def __init__(self, nf, vp, rows: int):
+        x0, y0, x1, y1, self.src = nf.edges
+        self.X0, self.X1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx
+        self.Y0, self.Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+        lo, hi = np.minimum(self.Y0, self.Y1), np.maximum(self.Y0, self.Y1)
+        # strip k covers sample rows [R_k, R_k + S), R_k = row0 + k S, and needs the edges with
+        # hi > R_k and lo < R_k + S: k from floor((lo - row0) / S) to ceil((hi - row0) / S) - 1
+        self.rows = rows
+        S = rows * vp.s
+        n_strips = -(-vp.out_h // rows)
+        first = np.clip(np.floor((lo - vp.row0) / S), 0, n_strips).astype(np.int64)
+        last = np.clip(np.ceil((hi - vp.row0) / S) - 1, -1, n_strips - 1).astype(np.int64)
+        count = np.maximum(last - first + 1, 0)
+        edge = np.repeat(np.arange(len(lo)), count)
+        strip = np.repeat(first - np.cumsum(count) + count, count) + np.arange(len(edge))
+        order = np.argsort(strip, kind="stable")
+        self.index = edge[order]
+        self.starts = np.searchsorted(strip[order], np.arange(n_strips + 1))
+
+    def of(self, out_r0: int) -> np.ndarray:
+        """Indices of the edges that reach the strip starting at output row out_r0."""
+        k = out_r0 // self.rows
+        return self.index[self.starts[k]:self.starts[k + 1]]
+
+
+def fill_strip(nf, vp, edges: StripEdges, out_r0: int, out_r1: int, flat: bool, tone=None) -> np.ndarray:
     """Output rows [out_r0, out_r1) of one channel: (out_r1 - out_r0, out_w) float32.
-    tone: the channel's tone curve knots (model.py), applied per sample, or None."""
+    edges: the channel's StripEdges, with a strip starting at out_r0 (out_r1 - out_r0 at most
+    its rows). tone: the channel's tone curve knots (model.py), applied per sample, or None."""
     s = vp.s
     n, m = (out_r1 - out_r0) * s, vp.out_w * s
     row0 = vp.row0 + out_r0 * s
-    x0, y0, x1, y1, src = nf.edges
-    X0, X1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx
-    Y0, Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
-    # only edges that reach the strip's rows (and everything to their left counts)
-    lo, hi = np.minimum(Y0, Y1), np.maximum(Y0, Y1)
-    sel = (hi > row0) & (lo < row0 + n)
-    tband, *_ = rasterise(X0[sel], Y0[sel], X1[sel], Y1[sel], src[sel], row0, vp.col0, n, m, False)
+    sel = edges.of(out_r0)
+    tband, *_ = rasterise(edges.X0[sel], edges.Y0[sel], edges.X1[sel], edges.Y1[sel], edges.src[sel], row0, vp.col0, n, m, False)
     tband += np.int16(nf.base_band)
     xs = (vp.col0 + np.arange(m) + 0.5 + vp.offx) / vp.kx * nf.r
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
