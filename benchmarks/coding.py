@@ -8,8 +8,11 @@ measures the .isoph bytes of
     columns+zlib   version 1's coding: byte-planed column layout, zlib (the old default)
     columns+lzma   the same columns, LZMA2
     columns+rc     the same column values, adaptive range coder (one model per column)
-    range, g=0     range coding with predictions and context models, no anchor grid
-    range          ... and the anchor grid (the writer's default, compression "range")
+    range v2, g=0  range coding with predictions and context models (format version 2's
+                   layout), no anchor grid
+    range v2       ... and the anchor grid
+    range          version 3's layout: chords after half the previous chord, handles in the
+                   chord's frame (the writer's default, compression "range")
 
 and the render's PSNR / SSIMULACRA2 against the original at 1x (the decoder's defaults), all
 in one run so that every number comes from the same decoder. Then bytes per stream (zlib per
@@ -38,7 +41,7 @@ from isophote import metrics
 from isophote._kernels import entropy
 from isophote.format import isoph
 
-STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range, g=0", "range"]
+STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range"]
 
 
 def encode_at(img, quant: int):
@@ -78,8 +81,9 @@ def columns_rc(checked) -> int:
     return total
 
 
-def range_bytes(checked, g_forced=None, account=False):
-    """Range-coded bytes of the channels (header excluded), and the bits per model."""
+def range_bytes(checked, g_forced=None, account=False, version=isoph.FORMAT_VERSION):
+    """Range-coded bytes of the channels (header excluded) in ``version``'s layout, and the
+    bits per model."""
     total, bits = 0, np.zeros(entropy.N_MODELS + 18)
     for ch in checked:
         info = ch.info
@@ -90,7 +94,7 @@ def range_bytes(checked, g_forced=None, account=False):
         coded, b = entropy.encode_channel(
             ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), g,
             ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> s_c), ch.vq >> s_v,
-            s_p, s_c, s_v, info.levels, info.base_band, account)
+            s_p, s_c, s_v, info.levels, info.base_band, version, account)
         total += len(coded)
         bits += b
     return total, bits
@@ -147,7 +151,7 @@ def main(argv=None):
 
     rows = {}  # (step, quant) -> {image: bytes}
     quality = {}  # quant -> {image: (psnr, ssimulacra2, segments)}
-    streams_cols, streams_range, times = {}, {}, {}
+    streams_cols, streams_range, streams_v2, times = {}, {}, {}, {}
     for q in quants:
         quality[q] = {}
         for name in names:
@@ -163,9 +167,11 @@ def main(argv=None):
                 steps["columns+zlib"] = len(isoph.dumps(vi, compression="zlib"))
                 steps["columns+lzma"] = len(isoph.dumps(vi, compression="lzma"))
                 steps["columns+rc"] = header + columns_rc(checked)
-                steps["range, g=0"] = header + range_bytes(checked, g_forced=0)[0]
+                steps["range v2, g=0"] = header + range_bytes(checked, g_forced=0, version=2)[0]
+                steps["range v2"] = header + range_bytes(checked, version=2)[0]
                 streams_cols[name] = stream_bytes_columns(checked)
                 streams_range[name] = stream_bytes_range(range_bytes(checked, account=True)[1])
+                streams_v2[name] = stream_bytes_range(range_bytes(checked, account=True, version=2)[1])
                 for comp in ("zlib", "range"):
                     t0 = time.perf_counter()
                     data = isoph.dumps(vi, compression=comp)
@@ -226,16 +232,17 @@ def main(argv=None):
 
     lines += [f"## Bytes per stream, QUANT {q0} (all photographs)", "",
               "Columns: each column zlib-compressed on its own. Range: the coder's bit count per",
-              "model (exact to a few bytes per channel).", "",
-              "| columns+zlib stream | bytes | range stream | bytes |", "|---|---|---|---|"]
+              "model (exact to a few bytes per channel), in version 2's layout and version 3's.", "",
+              "| columns+zlib stream | bytes | range stream | v2 bytes | v3 bytes |", "|---|---|---|---|---|"]
     cs = {k: sum(streams_cols[n][k] for n in names) for k in streams_cols[names[0]]}
     rs = {k: sum(streams_range[n][k] for n in names) for k in streams_range[names[0]]}
+    r2 = {k: sum(streams_v2[n][k] for n in names) for k in streams_v2[names[0]]}
     ck, rk = list(cs), list(rs)
     for i in range(max(len(ck), len(rk))):
         a = f"{ck[i]} | {cs[ck[i]]:,.0f}" if i < len(ck) else " | "
-        b = f"{rk[i]} | {rs[rk[i]]:,.0f}" if i < len(rk) else " | "
+        b = f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f}" if i < len(rk) else " | | "
         lines.append(f"| {a} | {b} |")
-    lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(rs.values()):,.0f} |", ""]
+    lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(r2.values()):,.0f} | {sum(rs.values()):,.0f} |", ""]
 
     lines += [f"## Write / read time, QUANT {q0}", "", "| image | segments | zlib write s | zlib read s | range write s | range read s |",
               "|---|---|---|---|---|---|"]

@@ -173,10 +173,11 @@ def grid_shift(values, most=6) -> int:
     return s
 
 
-def spec_range(c: dict) -> tuple:
-    """One channel's range-coded bytes and its grids (s_p, g, s_c, s_v), as the spec says:
-    the coarsest grids that lose nothing; the anchor grid g scoring best at 2 g (on-grid
-    anchor coordinates) - 3 (anchors), if that is > 0. A dict may set any of them."""
+def spec_range(c: dict, version: int = 3) -> tuple:
+    """One channel's range-coded bytes in ``version``'s layout and its grids (s_p, g, s_c,
+    s_v), as the spec says: the coarsest grids that lose nothing; the anchor grid g scoring
+    best at 2 g (on-grid anchor coordinates) - 3 (anchors), if that is > 0. A dict may set
+    any of them."""
     coords = [v for chain in c["chains"] for p in chain for v in p]
     s_p = c.get("s_p", grid_shift(coords))
     s_c = c.get("s_c", grid_shift([v for p in c["cap_xy"] for v in p]))
@@ -194,24 +195,25 @@ def spec_range(c: dict) -> tuple:
                   cap_contour=c["cap_contour"], cap_band=c["cap_band"],
                   cap_xy=[(x >> s_c, y >> s_c) for x, y in c["cap_xy"]],
                   cap_value=[v >> s_v for v in c["cap_value"]], s_p=s_p, s_c=s_c, s_v=s_v,
-                  levels=c["levels"], base_band=c.get("base_band", 0))
+                  levels=c["levels"], base_band=c.get("base_band", 0), version=version)
     return entropy_ref.encode_channel(fields), (s_p, g, s_c, s_v)
 
 
 def spec_file(channels, *, width=40, height=30, colour=0, depth=8, compression=0, xy_quant=64,
-              value_quant=64, version=2, reserved=0, meta=b"", raw_extra=b"", raw_size=None,
+              value_quant=64, version=3, reserved=0, meta=b"", raw_extra=b"", raw_size=None,
               header_extra=b"", payload_size=None, file_extra=b"", payload=None) -> bytes:
     """A file from spec-level fields; every field can lie, the checksums are always right.
 
     Counts default to the true ones; a channel dict may override n_contours, n_segments,
     n_caps, n_levels, n_tone (and give raw ``sections``; for compression 3, ``coded`` bytes,
-    ``coded_size`` and the grids s_p, g, s_c, s_v). ``version=1`` writes version 1's header.
+    ``coded_size`` and the grids s_p, g, s_c, s_v). ``version=1`` writes version 1's header;
+    ``version=2`` version 2's range-coded layout (its header is version 3's).
     """
     raw = b"".join(spec_sections(c) for c in channels) + raw_extra
     grids, coded = [], []
     for c in channels:
         if compression == 3 and "coded" not in c:
-            data, gr = spec_range(c)
+            data, gr = spec_range(c, version)
         else:
             data, gr = c.get("coded", b""), (0, 0, 0, 0)
         coded.append(data)
@@ -489,7 +491,7 @@ def range_coded(c: dict) -> bytes:
 LIES = {
     # name: (spec_file arguments, exception, message fragment)
     "bad magic": (None, FormatError, "bad magic"),
-    "version 3": (dict(version=3), FormatError, "version 3"),
+    "version 4": (dict(version=4), FormatError, "version 4"),
     "reserved": (dict(reserved=1), FormatError, "reserved"),
     "width 0": (dict(width=0), FormatError, "empty"),
     "width absurd": (dict(width=(1 << 20) + 1), LimitError, "exceeds"),
@@ -557,7 +559,7 @@ LIES = {
     "point shift": (([one_channel(s_p=7)], 3), FormatError, "grid shifts 7/"),
     "anchor shift": (([one_channel(g=17)], 3), FormatError, "/17/"),
     "coded sizes lie": (([one_channel(coded_size=1)], 3), FormatError, "coded sizes add up"),
-    # range-coded channels (version 2, compression 3): the plain-Python coder writes the lies
+    # range-coded channels (version 3, compression 3): the plain-Python coder writes the lies
     "range level": (([one_channel(contour_level=[0, 3])], 3), FormatError, "contour level 3"),
     "range parent": (([one_channel(parent=[-1, 7])], 3), FormatError, "parent 7 (entry 1)"),
     "range cycle": (([one_channel(parent=[1, 0])], 3), FormatError, "cycle"),
@@ -701,7 +703,7 @@ def test_save_load_and_read_info(tmp_path):
     assert isoph.load(str(path)).equals(vi)
     for source in (path, str(path), path.read_bytes()):
         info = isoph.read_info(source)
-        assert info["format_version"] == 2 and info["compression"] == "range"
+        assert info["format_version"] == 3 and info["compression"] == "range"
         assert (info["width"], info["height"], info["colour"]) == (vi.width, vi.height, "yuv")
         assert info["source_depth"] == vi.source_depth
         assert info["bytes"] == path.stat().st_size
@@ -827,7 +829,7 @@ def test_encoder_output_is_range_coded_compactly():
     assert ratio < 0.85, ratio
 
 
-# ---- version 2: tone curves, grids, range coding; version 1 files --------------------------
+# ---- versions 2 and 3: tone curves, grids, range coding; version 1 and 2 files ---------------
 
 
 def test_tone_round_trips_and_none_stays_none():
@@ -880,7 +882,7 @@ def test_version_1_files_are_read():
     out = isoph.loads(old)
     assert out.equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
     assert isoph.read_info(old)["format_version"] == 1
-    assert isoph.read_info(isoph.dumps(out))["format_version"] == 2
+    assert isoph.read_info(isoph.dumps(out))["format_version"] == 3
 
 
 # random_image(3, "yuv", n_contours=2, n_levels=3) as version 1's writer (isophote 0.1) wrote it
@@ -899,6 +901,96 @@ V1_FILE = (
     "de6146f3d3a7924c8dc2aa560d0bf79eec7937677ebd37c3c8f856fe399ffc73cb0373573cdcbca4b1f5b222270f47f2"
     "92202e7e2631161e36267e2636162e26666e660160483132d82bb0b2b2b070b3b1720039aca2a000a505000074eb5ddc"
 )
+
+
+def fingerprint(vi: VectorImage) -> str:
+    """A hash of every decoded array (points, hierarchy, caps) of every channel."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for c in vi.channels:
+        for a in (c.contour_level, c.offsets, c.points, c.border, c.parent, c.cap_band, c.cap_contour,
+                  c.cap_xy, c.cap_value):
+            h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def test_version_2_files_are_read():
+    """Range-coded files of format version 2 load: the spec writer's (version 2's layout of
+    the coded channels), and files written by version 2's own writer, one with fitted
+    contours on an anchor grid."""
+    for seed in (43, 44):
+        vi = random_image(seed, "yuv+alpha")
+        meta = json.dumps(vi.meta, sort_keys=True, separators=(",", ":"), ensure_ascii=False).encode()
+        data = spec_file([spec_channel(c) for c in vi.channels], width=vi.width, height=vi.height,
+                         colour=1, depth=vi.source_depth, compression=3, meta=meta, version=2)
+        out = isoph.loads(data)
+        assert out.equals(vi) and isoph.read_info(data)["format_version"] == 2
+        assert isoph.dumps(out) != data  # written again as version 3: another layout
+    old = bytes.fromhex(V2_FILE)
+    assert isoph.read_info(old)["format_version"] == 2 and isoph.read_info(old)["compression"] == "range"
+    assert isoph.loads(old).equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
+    old = bytes.fromhex(V2_FITTED_FILE)
+    assert isoph.read_info(old)["format_version"] == 2
+    assert isoph._parse_header(old, len(old)).channels[0].g > 0  # the anchor grid is on
+    out = isoph.loads(old)
+    assert fingerprint(out) == V2_FITTED_FINGERPRINT
+    again = isoph.dumps(out)
+    assert isoph.read_info(again)["format_version"] == 3 and isoph.loads(again).equals(out)
+
+
+# random_image(3, "yuv", tone=False, n_contours=2, n_levels=3) as version 2's writer wrote it
+V2_FILE = (
+    "8949534f50480d0a02000000fa000000a2000000120000000108030340004000c3010000000000002803000000000000"
+    "117f0b6d190000007b226e6f7465223a22636166c3a9222c2273656564223a337d590300020002000000070000000200"
+    "000000000000000084000000000000003a58c7bcfa8509c0e5d38916fec42940c8d43b53e8a138405503000000020000"
+    "000e00000002000000000000000100d50000000000000026f6c09bef311e407eeff2ccf6bb2140ab4ee8f51769304056"
+    "030003000200000007000000000000000000000200006a0000000000000018aa91cde213314093e3476dac223c406092"
+    "cfce41bf43401e82eeae9565a4087840f2208e5e594aed9c14f96ea40a3d486bda6e650562aaaf43211d8d82535a2d71"
+    "afc3ab3d103291d95d11310b3e3c441dc702a9147ad75e1942aad01effe152ee77fe4aec5085a2e748794b04b6960ab4"
+    "c87b093ce2c455157517bcce0fae8f880b0c7eede3ed9c301c37d0aeccf9affe19e2f807b0d8e45792cd80cc00008dc8"
+    "9ee9d091c576a27371674e2f0d8dbccbf7f19b28d12774714ebabebbaabdf6b41a76f7143f88cdb1522066ea656b1167"
+    "b7b55d525e3dfc9de0417eb52c9d997e24af836ca55294f656a45be9c23af6d50b418db82d68cd7f841bee3a78fa9980"
+    "bd59da3d98d556d3cc8799aa75fa3048546dde9e3d3b33aefac005145434616a2ba6cab9bc41f6d4fa0516cff6b0122f"
+    "0ef2a409e0335ddcdc7f4d82d8ccd486fe679bfbd5807d93ca91447f5ee1c4e558d1eee4f9dd69bd6c82e8643db8523b"
+    "c437cdedca5bc5dffd4a6cf42e2dc27f000000918a5db3cb72d2c5e73205055cd4d258cf6343d7891527164e8f60cc17"
+    "5165d2f24e5acc8a4c9e934a34e7b4a985dbe295e0eb36857ff33e08ee61de4f2333cfafce1d8db05a0eed5bc551beb3"
+    "a6c4013b1466f171c6b913c917592e6c36283de3795269994ec744b1d3"
+)
+
+# A 16 x 14 grey ramp with a disc, encoded (paper preset) and written by version 2's writer:
+# 23 contours, 214 segments, anchor grid on; and the fingerprint of what it decodes to.
+V2_FITTED_FILE = (
+    "8949534f50480d0a0200000023010000100000000e00000000080103400040001d040000000000005915000000000000"
+    "baff5f4900000000591900000017000000d6000000040000000000000505001d040000000000000000000000001e4000"
+    "000000008031400000000000803b400000000000c042400000000000c047400000000000c04c400000000000e0504000"
+    "000000006053400000000000e0554000000000006058400000000000e05a400000000000605d400000000000e05f4000"
+    "0000000030614000000000007062400000000000b063400000000000f064400000000000306640000000000070674000"
+    "00000000b068400000000000f069400000000000306b400000000000706c400000000000b06d400000000000f06e404b"
+    "af96718d4891d8a4aa12d5063d5253a35aabd3569efa8d3928c21e81a875c4bde319943b7fa8e10a627c04b258ef88a5"
+    "15c644aa2d484f2a29de2bc9171e27e9f1f8d0dd5d4514b997e3c6c392cfd15cc705bad9155a10495833d1e97765f821"
+    "e43cbbdec6509af88ef783a8523214e5e1d61e83c5367e4a8308a8051beed57c1bf3650305df61b67571a1557f7a3c94"
+    "09c28169d370ab3067793b66cdf6491d854f60f7c5325e7899a61151ca3f1faf95f8e9c95f49e72657caf5c24202d5c9"
+    "94341572c11e2e4b697f852157e51982ece70fd3b13cbf36eec95c5ddba91827f81955a2c1d9a801588098230155ad17"
+    "19d14e243b3480de2ea44b464625c00f32156a9f900babaf0f3a58bcdfa5d8770f1d35b4ddd34163ee6c5d5bb417ecf3"
+    "4e299c689de90c547877a9da9f28ecac4ba5bf84c3f66ead9130ba4314ff111c8a4f00fdfccc58986413a4a6130eb107"
+    "af2df32aba4b128ddd284deb0c06a13805e7931aa6401c2483d13710ea11cdcfc9c8ed00bc8b6e65fd744fa77f4a60f6"
+    "318dd6a8fbcc3997931e405afcebce20543ab5234db8e915354ebf4330e9fd9ae62881404be23bd12d41e718e5de9186"
+    "d19ac95e945f20ea19cb7390e0e23106d25cab7de367e0c39c55a68de3662356ad7fc0d84f5a403ebcc6341366247ce1"
+    "e6675f3ee2687a45c97431c92d14da9bb5c64ad388c728382b64d192c94532bb871d73fbfa0e24766787047271cbeeeb"
+    "81b1339b590c3afb58e956c201798a97953b47ea1f1c1361925efcb38b54070ac0e8d18e533f6b78e9c5be1935a09ca3"
+    "a6b169de5478bad95422737f54e7b83fa7d0090154f6284484136372a17572a2f7770d4004046a4bce9cb2d014627fa1"
+    "44fa800be0ecc61e98b25fc1236c52950e828645332026772006827161339ee043055942012b7360367872872537aa49"
+    "a8ac5d3465189ed23b8a9c408b6e019007e1afc2cfc66368de6305bd3ac6f20f46364ca349a38e4221ed5eedd7246f8d"
+    "a8d4306c47beed72c11ec5fada6b4be34eeed60386ae311e91948184a0516ca25d9b2476e4b42e4e55851f49be80be1d"
+    "a1c286463363ca542dc368e29dbc4ba7857f865cfafb4b90ba2828b4c7c8e9aa849454ce0a43ede12b657c76da005fe1"
+    "57e3be35bf2488cdbe864ddc160a4f1b5d680295c1aea2d1edc1191f8e81a495d28c137df6e3dc57befae238cc301636"
+    "7a9cfea3c1f2cb89a86a7d4f58f46380d3df91dcd92307dc7e49ecd7431166a173b5546ef6c5387e137e84a597581648"
+    "41a0b4c2d1423078779be259d7be7d3bc9c62ae3c94b100753bbdf3e5bf7bb1b05f1152bfc04537eda9fa2071e55d00f"
+    "b09381d08625399ef3a8a5ab2b1c6835ef76b22c49fec97303d0cc09c9fb8dc4be7928bcd9f56506501b04559e491632"
+    "2e7c8250d2246b9292f9b1940ec695cabe3bd52f5a290c18b02550ebdd9cec7459a453d888cfb99cec779d7eaa510000"
+)
+V2_FITTED_FINGERPRINT = "db0b8a442800ef24943de3a11126dc3aadc7feb9958f89b5e3c66f7613e66d16"
 
 
 def test_range_payload_fuzz_with_valid_checksum():

@@ -304,7 +304,7 @@ def checksummed_headers(draw):
                          draw(st.integers(0, 1)), draw(st.sampled_from([8, 16])), draw(st.integers(1, 4)),
                          draw(st.integers(0, 3)), 64, 64)
         struct.pack_into("<I", body, 36, draw(st.integers(0, 8)))  # meta_size
-    version = draw(st.sampled_from([1, 2]))
+    version = draw(st.sampled_from([1, 2, 3]))
     head = isoph.MAGIC + struct.pack("<HHI", version, 0, 16 + len(body) + 4) + bytes(body)
     head += struct.pack("<I", zlib.crc32(head))
     return head + draw(st.binary(max_size=200))
@@ -335,7 +335,7 @@ def lying_files(draw):
     meta = draw(st.one_of(st.just(b""), st.just(b'{"a":NaN}'), st.just(b'{"a":1e400}'),
                           st.dictionaries(st.text(max_size=4), json_values, max_size=2).map(
                               lambda d: json.dumps(d).encode()), st.binary(max_size=20)))
-    version = draw(st.sampled_from([1, 2, 2]))
+    version = draw(st.sampled_from([1, 2, 3, 3]))
     chans, counts = [], []
     for name in names:
         n_levels = draw(st.one_of(st.integers(0, 5), st.sampled_from([1024, 1025, 65535])))
@@ -345,7 +345,7 @@ def lying_files(draw):
         lv = (lv + [float(v) for v in range(n_levels - len(lv))])[:n_levels] if n_levels <= 1024 else lv
         c, s, k = draw(small), draw(small), draw(small)
         base_band = draw(st.integers(0, min(n_levels + 1, 65535)))
-        # version 2: a tone curve, grids (mostly plausible), a coded size
+        # versions 2 and 3: a tone curve, grids (mostly plausible), a coded size
         n_tone = draw(st.one_of(st.just(0), st.integers(1, 5), st.sampled_from([4096, 4097, 65535])))
         tone = draw(st.lists(st.floats(width=64), min_size=2 * min(n_tone, 5), max_size=2 * min(n_tone, 5)))
         if draw(st.booleans()):
@@ -378,7 +378,7 @@ def lying_files(draw):
             summaries += struct.pack("<cHHIIIHBBBBQ", name.encode("latin-1"), n_levels, base_band, c, s, k,
                                      n_tone, *shifts, size)
         summaries += struct.pack(f"<{len(lv)}d", *lv)
-        if version == 2:
+        if version >= 2:
             summaries += struct.pack(f"<{len(tone)}d", *tone)
     fixed = struct.pack(
         "<IIBBBBHHQQII", draw(st.one_of(st.integers(1, 64), u32)), draw(st.one_of(st.integers(1, 64), u32)),

@@ -353,6 +353,49 @@ def _rnd3(v):
 
 
 @njit(cache=True, nogil=True)
+def _round(x):
+    return np.int64(np.floor(x + 0.5))
+
+
+@njit(cache=True, nogil=True)
+def _frame(dx, dy):
+    """The chord frame of layout 3: (sign, p, q) of the integer rotation that turns the chord
+    d = (dx, dy) onto the +x axis (see _to_frame); (1, 0.0, 0.0), the identity, for d = 0."""
+    sg = np.int64(1)
+    if dx < 0 or (dx == 0 and dy < 0):  # rotate by pi first (exact): |angle| <= pi / 2 left
+        dx = -dx
+        dy = -dy
+        sg = np.int64(-1)
+    if dx == 0 and dy == 0:
+        return sg, 0.0, 0.0
+    fx = np.float64(dx)
+    fy = np.float64(dy)
+    length = np.sqrt(fx * fx + fy * fy)
+    return sg, fy / (length + fx), -fy / length
+
+
+@njit(cache=True, nogil=True)
+def _to_frame(sg, p, q, vx, vy):
+    """(along, across): v rotated by the chord frame's angle with three lifting shears
+    (x += [p y], y += [q x], x += [p y], [.] rounding to nearest; p = tan(theta/2), q = -sin
+    theta), then times sg. Exactly invertible in integers (_from_frame)."""
+    x = vx + _round(p * vy)
+    y = vy + _round(q * x)
+    x = x + _round(p * y)
+    return sg * x, sg * y
+
+
+@njit(cache=True, nogil=True)
+def _from_frame(sg, p, q, a, c):
+    x = sg * a
+    y = sg * c
+    x = x - _round(p * y)
+    y = y - _round(q * x)
+    x = x - _round(p * y)
+    return x, y
+
+
+@njit(cache=True, nogil=True)
 def _level_pred(levels, lev, shift):
     """A cap value's prediction: its contour's level in 1/64 grey level, on the value grid."""
     x = levels[lev] * 64.0
@@ -388,8 +431,46 @@ def _candidate(parent, k, rank):
 
 
 @njit(cache=True, nogil=True)
+def _enc_handles3(st, out, probs, b, db, dx, dy, hx, hy, gx, gy):
+    """Layout 3's handles: the residuals h, r in the chord's frame, (h.a, h.c) and (r.a, r.c);
+    r.a after -h.a / 2 (the two handles tend to grow and shrink together)."""
+    sg, p, q = _frame(dx, dy)
+    ha, hc = _to_frame(sg, p, q, hx, hy)
+    ga, gc = _to_frame(sg, p, q, gx, gy)
+    ga += (ha + 1) >> 1
+    _enc_int(st, out, probs, M_HX + b * NB + db, ha)
+    if b:
+        _enc_int(st, out, probs, M_HY + BORDER_CTX, hc)
+        _enc_int(st, out, probs, M_GX + BORDER_CTX, ga)
+        _enc_int(st, out, probs, M_GY + BORDER_CTX, gc)
+    else:
+        _enc_int(st, out, probs, M_HY + _bucket(ha) * NB + db, hc)
+        _enc_int(st, out, probs, M_GX + _bucket(ha) * NB + db, ga)
+        _enc_int(st, out, probs, M_GY + _bucket(hc) * NB + db, gc)
+
+
+@njit(cache=True, nogil=True)
+def _dec_handles3(ds, inp, probs, b, db, dx, dy):
+    """The inverse of _enc_handles3: (hx, hy, gx, gy)."""
+    ha = _dec_int(ds, inp, probs, M_HX + b * NB + db)
+    if b:
+        hc = _dec_int(ds, inp, probs, M_HY + BORDER_CTX)
+        ga = _dec_int(ds, inp, probs, M_GX + BORDER_CTX)
+        gc = _dec_int(ds, inp, probs, M_GY + BORDER_CTX)
+    else:
+        hc = _dec_int(ds, inp, probs, M_HY + _bucket(ha) * NB + db)
+        ga = _dec_int(ds, inp, probs, M_GX + _bucket(ha) * NB + db)
+        gc = _dec_int(ds, inp, probs, M_GY + _bucket(hc) * NB + db)
+    ga -= (ha + 1) >> 1
+    sg, p, q = _frame(dx, dy)
+    hx, hy = _from_frame(sg, p, q, ha, hc)
+    gx, gy = _from_frame(sg, p, q, ga, gc)
+    return hx, hy, gx, gy
+
+
+@njit(cache=True, nogil=True)
 def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, cap_xy, cap_value,
-                   s_p, s_c, s_v, levels, base_band, account):
+                   s_p, s_c, s_v, levels, base_band, layout, account):
     """One channel's coded bytes (uint8 array), and the bits spent per model and flag slot
     (float64, N_MODELS + 18 entries; all 0 unless ``account``: it slows coding down).
 
@@ -400,6 +481,8 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     cap_contour, cap_band : (K,) int64; cap_xy : (K, 2) int64 on the cap grid;
     cap_value : (K,) int64 on the value grid.
     s_p, s_c, s_v : the grids' shifts from 1/64; levels : (L,) float64; base_band : int.
+    layout : 2 or 3, the format version whose predictions to use (3: chords after half the
+        previous chord, handles in the chord's frame).
     """
     probs = new_probs_kernel()
     st = np.zeros(5 + (N_MODELS + 18 if account else 0), np.int64)
@@ -452,6 +535,8 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
         prev_b = 2
         prev_f = f
         dbk = 0
+        pdx = np.int64(0)
+        pdy = np.int64(0)
         for i in range(n):
             out = _grow(out, st[4] + st[3] + 2048)
             ax = pts[t + 3 * i, 0]
@@ -471,23 +556,33 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
                     f = (1 if (nx & ((1 << g) - 1)) == 0 else 0) | (2 if (ny & ((1 << g) - 1)) == 0 else 0)
                     _enc_flag4(st, out, probs, prev_f, f)
                 prev_f = f
+                bx = ax  # N's prediction: A (layout 2), A + half the previous chord (3)
+                by = ay
+                if layout >= 3:
+                    bx += pdx >> 1
+                    by += pdy >> 1
                 if f & 1:
-                    _enc_int(st, out, probs, M_DCX + b * NB + dbk, (nx >> g) - ((ax + half_g) >> g))
+                    _enc_int(st, out, probs, M_DCX + b * NB + dbk, (nx >> g) - ((bx + half_g) >> g))
                 else:
-                    _enc_int(st, out, probs, M_DFX + b * NB + dbk, nx - ax)
+                    _enc_int(st, out, probs, M_DFX + b * NB + dbk, nx - bx)
                 ybk = _bucket(nx - ax)
                 if f & 2:
-                    _enc_int(st, out, probs, M_DCY + b * NB + ybk, (ny >> g) - ((ay + half_g) >> g))
+                    _enc_int(st, out, probs, M_DCY + b * NB + ybk, (ny >> g) - ((by + half_g) >> g))
                 else:
-                    _enc_int(st, out, probs, M_DFY + b * NB + ybk, ny - ay)
+                    _enc_int(st, out, probs, M_DFY + b * NB + ybk, ny - by)
             dx = nx - ax
             dy = ny - ay
+            pdx = dx
+            pdy = dy
             db = _bucket(max(abs(dx), abs(dy)))
             dbk = db
             hx = pts[t + 3 * i + 1, 0] - ax - _rnd3(dx)
             hy = pts[t + 3 * i + 1, 1] - ay - _rnd3(dy)
             gx = pts[t + 3 * i + 2, 0] - nx + _rnd3(dx)
             gy = pts[t + 3 * i + 2, 1] - ny + _rnd3(dy)
+            if layout >= 3:
+                _enc_handles3(st, out, probs, b, db, dx, dy, hx, hy, gx, gy)
+                continue
             _enc_int(st, out, probs, M_HX + b * NB + db, hx)
             if b:
                 _enc_int(st, out, probs, M_HY + BORDER_CTX, hy)
@@ -544,8 +639,8 @@ def new_probs_kernel():
 
 
 @njit(cache=True, nogil=True)
-def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band):
-    """The inverse of encode_channel, checking as it goes.
+def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
+    """The inverse of encode_channel (``layout`` 2 or 3), checking as it goes.
 
     Returns (status, where, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy,
     cap_value): q is (3 S + C, 2) int64 in 1/64 px with every chain closed; cap_xy and
@@ -627,6 +722,8 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band):
         prev_b = 2
         prev_f = f
         dbk = 0
+        pdx = np.int64(0)
+        pdy = np.int64(0)
         ax = x0
         ay = y0
         for i in range(n):
@@ -638,15 +735,20 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band):
                 if g > 0:
                     f = _dec_flag4(ds, inp, probs, prev_f)
                 prev_f = f
+                bx = ax
+                by = ay
+                if layout >= 3:
+                    bx += pdx >> 1
+                    by += pdy >> 1
                 if f & 1:
-                    nx = (((ax + half_g) >> g) + _dec_int(ds, inp, probs, M_DCX + b * NB + dbk)) << g
+                    nx = (((bx + half_g) >> g) + _dec_int(ds, inp, probs, M_DCX + b * NB + dbk)) << g
                 else:
-                    nx = ax + _dec_int(ds, inp, probs, M_DFX + b * NB + dbk)
+                    nx = bx + _dec_int(ds, inp, probs, M_DFX + b * NB + dbk)
                 ybk = _bucket(nx - ax)
                 if f & 2:
-                    ny = (((ay + half_g) >> g) + _dec_int(ds, inp, probs, M_DCY + b * NB + ybk)) << g
+                    ny = (((by + half_g) >> g) + _dec_int(ds, inp, probs, M_DCY + b * NB + ybk)) << g
                 else:
-                    ny = ay + _dec_int(ds, inp, probs, M_DFY + b * NB + ybk)
+                    ny = by + _dec_int(ds, inp, probs, M_DFY + b * NB + ybk)
                 if abs(nx) >= lim or abs(ny) >= lim:
                     return (E_POINT, j, 0, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy, cap_value)
             else:
@@ -654,14 +756,19 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band):
                 ny = y0
             dx = nx - ax
             dy = ny - ay
+            pdx = dx
+            pdy = dy
             db = _bucket(max(abs(dx), abs(dy)))
             dbk = db
-            hx = _dec_int(ds, inp, probs, M_HX + b * NB + db)
-            if b:
+            if layout >= 3:
+                hx, hy, gx, gy = _dec_handles3(ds, inp, probs, b, db, dx, dy)
+            elif b:
+                hx = _dec_int(ds, inp, probs, M_HX + b * NB + db)
                 hy = _dec_int(ds, inp, probs, M_HY + BORDER_CTX)
                 gx = _dec_int(ds, inp, probs, M_GX + BORDER_CTX)
                 gy = _dec_int(ds, inp, probs, M_GY + BORDER_CTX)
             else:
+                hx = _dec_int(ds, inp, probs, M_HX + b * NB + db)
                 hy = _dec_int(ds, inp, probs, M_HY + _bucket(hx) * NB + db)
                 hb = _bucket(max(abs(hx), abs(hy)))
                 gx = _dec_int(ds, inp, probs, M_GX + hb * NB + db)

@@ -199,6 +199,94 @@ def rnd3(v: int) -> int:
     return (v + 1) // 3
 
 
+def rnd(x: float) -> int:
+    return math.floor(x + 0.5)
+
+
+def chord_frame(dx: int, dy: int):
+    """Version 3's rotation onto the chord d: (sign, tan(theta / 2), -sin(theta)) of the
+    angle theta of d, after d is turned by pi (sign -1) when it points left or straight up."""
+    sign = 1
+    if dx < 0 or (dx == 0 and dy < 0):
+        dx, dy, sign = -dx, -dy, -1
+    if dx == 0 and dy == 0:
+        return sign, 0.0, 0.0
+    length = math.sqrt(float(dx) * float(dx) + float(dy) * float(dy))
+    return sign, float(dy) / (length + float(dx)), -float(dy) / length
+
+
+def to_frame(frame, x: int, y: int):
+    """(along, across): three lifting shears, exactly invertible in integers."""
+    sign, p, q = frame
+    x += rnd(p * y)
+    y += rnd(q * x)
+    x += rnd(p * y)
+    return sign * x, sign * y
+
+
+def from_frame(frame, a: int, c: int):
+    sign, p, q = frame
+    x, y = sign * a, sign * c
+    x -= rnd(p * y)
+    y -= rnd(q * x)
+    x -= rnd(p * y)
+    return x, y
+
+
+def put_handles(enc, mo, version, b, db, d, h, r):
+    """The residuals h = Ca - A - rnd3(d) and r = Cb - N + rnd3(d) of one segment."""
+    if version >= 3:
+        frame = chord_frame(*d)
+        ha, hc = to_frame(frame, *h)
+        ra, rc = to_frame(frame, *r)
+        ra += (ha + 1) >> 1
+        mo.int("hx", b, db).put(enc, ha)
+        if b:
+            for name, v in (("hy", hc), ("gx", ra), ("gy", rc)):
+                mo.int(name, "border").put(enc, v)
+        else:
+            mo.int("hy", bucket(ha), db).put(enc, hc)
+            mo.int("gx", bucket(ha), db).put(enc, ra)
+            mo.int("gy", bucket(hc), db).put(enc, rc)
+        return
+    mo.int("hx", b, db).put(enc, h[0])
+    if b:
+        mo.int("hy", "border").put(enc, h[1])
+        mo.int("gx", "border").put(enc, r[0])
+        mo.int("gy", "border").put(enc, r[1])
+    else:
+        mo.int("hy", bucket(h[0]), db).put(enc, h[1])
+        hb = bucket(max(abs(h[0]), abs(h[1])))
+        mo.int("gx", hb, db).put(enc, r[0])
+        mo.int("gy", hb, db).put(enc, r[1])
+
+
+def get_handles(dec, mo, version, b, db, d):
+    """The inverse of put_handles: (h, r)."""
+    if version >= 3:
+        ha = mo.int("hx", b, db).get(dec)
+        if b:
+            hc, ra, rc = (mo.int(name, "border").get(dec) for name in ("hy", "gx", "gy"))
+        else:
+            hc = mo.int("hy", bucket(ha), db).get(dec)
+            ra = mo.int("gx", bucket(ha), db).get(dec)
+            rc = mo.int("gy", bucket(hc), db).get(dec)
+        ra -= (ha + 1) >> 1
+        frame = chord_frame(*d)
+        return from_frame(frame, ha, hc), from_frame(frame, ra, rc)
+    hx = mo.int("hx", b, db).get(dec)
+    if b:
+        hy = mo.int("hy", "border").get(dec)
+        gx = mo.int("gx", "border").get(dec)
+        gy = mo.int("gy", "border").get(dec)
+    else:
+        hy = mo.int("hy", bucket(hx), db).get(dec)
+        hb = bucket(max(abs(hx), abs(hy)))
+        gx = mo.int("gx", hb, db).get(dec)
+        gy = mo.int("gy", hb, db).get(dec)
+    return (hx, hy), (gx, gy)
+
+
 def level_pred(levels, lev: int, shift: int) -> int:
     x = min(max(float(levels[lev]) * 64.0, -LIMIT), LIMIT)
     return math.floor(x + 0.5) >> shift
@@ -250,7 +338,7 @@ def get_coord(dec, model_fine, model_coarse, on, old, g):
 def encode_channel(ch: dict) -> bytes:
     """ch: level, nseg, parent, chains (per contour, its 3 n stored points on the point grid),
     border (per segment), g, cap_contour, cap_band, cap_xy (cap grid), cap_value (value grid),
-    s_p, s_c, s_v, levels, base_band.
+    s_p, s_c, s_v, levels, base_band; and ``version`` (2 or 3, default 3): whose layout.
 
     It codes whatever it is given, lies included (segment counts that do not fit the chains,
     levels or cap contours out of range: (0, 0) and 0 stand in for what does not exist), so
@@ -258,6 +346,7 @@ def encode_channel(ch: dict) -> bytes:
     """
     enc, mo = Encoder(), Models()
     level, parent, g = ch["level"], ch["parent"], ch["g"]
+    version = ch.get("version", 3)
     c = len(level)
     prev_rank = 0
     for k in range(c):
@@ -289,7 +378,7 @@ def encode_channel(ch: dict) -> bytes:
         put_coord(enc, mo.int("p0", 0), mo.int("p0 coarse", 0), f & 1, x0, prev0[0], g)
         put_coord(enc, mo.int("p0", 1), mo.int("p0 coarse", 1), f & 2, y0, prev0[1], g)
         prev0 = (x0, y0)
-        prev_b, prev_f, dbk = 2, f, 0
+        prev_b, prev_f, dbk, pd = 2, f, 0, (0, 0)
         for i in range(n):
             ax, ay = pts(3 * i)
             nx, ny = pts(3 * i + 3) if i < n - 1 else (x0, y0)
@@ -301,25 +390,16 @@ def encode_channel(ch: dict) -> bytes:
                 if g:
                     put_flag4(enc, mo, prev_f, f)
                 prev_f = f
-                put_coord(enc, mo.int("dx", b, dbk), mo.int("dx coarse", b, dbk), f & 1, nx, ax, g)
+                bx, by = (ax + (pd[0] >> 1), ay + (pd[1] >> 1)) if version >= 3 else (ax, ay)
+                put_coord(enc, mo.int("dx", b, dbk), mo.int("dx coarse", b, dbk), f & 1, nx, bx, g)
                 ybk = bucket(nx - ax)
-                put_coord(enc, mo.int("dy", b, ybk), mo.int("dy coarse", b, ybk), f & 2, ny, ay, g)
+                put_coord(enc, mo.int("dy", b, ybk), mo.int("dy coarse", b, ybk), f & 2, ny, by, g)
             dx, dy = nx - ax, ny - ay
+            pd = (dx, dy)
             db = dbk = bucket(max(abs(dx), abs(dy)))
-            hx = pts(3 * i + 1)[0] - ax - rnd3(dx)
-            hy = pts(3 * i + 1)[1] - ay - rnd3(dy)
-            gx = pts(3 * i + 2)[0] - nx + rnd3(dx)
-            gy = pts(3 * i + 2)[1] - ny + rnd3(dy)
-            mo.int("hx", b, db).put(enc, hx)
-            if b:
-                mo.int("hy", "border").put(enc, hy)
-                mo.int("gx", "border").put(enc, gx)
-                mo.int("gy", "border").put(enc, gy)
-            else:
-                mo.int("hy", bucket(hx), db).put(enc, hy)
-                hb = bucket(max(abs(hx), abs(hy)))
-                mo.int("gx", hb, db).put(enc, gx)
-                mo.int("gy", hb, db).put(enc, gy)
+            h = (pts(3 * i + 1)[0] - ax - rnd3(dx), pts(3 * i + 1)[1] - ay - rnd3(dy))
+            r = (pts(3 * i + 2)[0] - nx + rnd3(dx), pts(3 * i + 2)[1] - ny + rnd3(dy))
+            put_handles(enc, mo, version, b, db, (dx, dy), h, r)
         s0 += n
 
     s_p, s_c, s_v = ch["s_p"], ch["s_c"], ch["s_v"]
@@ -349,7 +429,7 @@ class Invalid(Exception):
     """A decoded value breaks a rule; args: (what, entry)."""
 
 
-def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band) -> dict:
+def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, version=3) -> dict:
     """The inverse of encode_channel: a dict of lists, points in 1/64 px as (x, y) tuples per
     contour with the closing point, caps in 1/64 units. Raises Invalid for a broken rule."""
     dec, mo = Decoder(data), Models()
@@ -395,7 +475,7 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band) ->
             raise Invalid("point", j)
         prev0 = (x0, y0)
         pts = [(x0, y0)]
-        prev_b, prev_f, dbk = 2, f, 0
+        prev_b, prev_f, dbk, pd = 2, f, 0, (0, 0)
         ax, ay = x0, y0
         for i in range(n):
             b = dec.bit(mo.bit("border", prev_b))
@@ -404,25 +484,18 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band) ->
             if i < n - 1:
                 f = get_flag4(dec, mo, prev_f) if g else 0
                 prev_f = f
-                nx = get_coord(dec, mo.int("dx", b, dbk), mo.int("dx coarse", b, dbk), f & 1, ax, g)
+                bx, by = (ax + (pd[0] >> 1), ay + (pd[1] >> 1)) if version >= 3 else (ax, ay)
+                nx = get_coord(dec, mo.int("dx", b, dbk), mo.int("dx coarse", b, dbk), f & 1, bx, g)
                 ybk = bucket(nx - ax)
-                ny = get_coord(dec, mo.int("dy", b, ybk), mo.int("dy coarse", b, ybk), f & 2, ay, g)
+                ny = get_coord(dec, mo.int("dy", b, ybk), mo.int("dy coarse", b, ybk), f & 2, by, g)
                 if abs(nx) >= lim or abs(ny) >= lim:
                     raise Invalid("point", j)
             else:
                 nx, ny = x0, y0
             dx, dy = nx - ax, ny - ay
+            pd = (dx, dy)
             db = dbk = bucket(max(abs(dx), abs(dy)))
-            hx = mo.int("hx", b, db).get(dec)
-            if b:
-                hy = mo.int("hy", "border").get(dec)
-                gx = mo.int("gx", "border").get(dec)
-                gy = mo.int("gy", "border").get(dec)
-            else:
-                hy = mo.int("hy", bucket(hx), db).get(dec)
-                hb = bucket(max(abs(hx), abs(hy)))
-                gx = mo.int("gx", hb, db).get(dec)
-                gy = mo.int("gy", hb, db).get(dec)
+            (hx, hy), (gx, gy) = get_handles(dec, mo, version, b, db, (dx, dy))
             ca = (ax + rnd3(dx) + hx, ay + rnd3(dy) + hy)
             cb = (nx - rnd3(dx) + gx, ny - rnd3(dy) + gy)
             if max(abs(ca[0]), abs(ca[1]), abs(cb[0]), abs(cb[1])) >= lim:

@@ -3,8 +3,9 @@
 This docstring is the specification; docs/format.md says the same for readers who do not read
 Python. Every multi-byte number is LITTLE-ENDIAN. CRC-32 is the ISO-HDLC one of zlib and PNG
 (``zlib.crc32``). Offsets are in bytes from the start of the file. This module writes version
-2 and reads versions 1 and 2 (version 1 is version 2 less tone curves, grids and range
-coding; its differences are listed under "Version 1").
+3 and reads versions 1, 2 and 3 (version 2 is version 3 with other predictions in its
+range-coded channels, version 1 is version 2 less tone curves, grids and range coding; their
+differences are listed under "Version 2" and "Version 1").
 
 Overview
 ========
@@ -31,7 +32,7 @@ Preamble (16 bytes, version-independent)
 
     offset size  field
      0     8     magic        89 49 53 4F 50 48 0D 0A   ("\\x89ISOPH\\r\\n")
-     8     u16   version      2
+     8     u16   version      3
     10     u16   reserved     0
     12     u32   header_size  bytes from offset 0 to the end of header_crc
 
@@ -177,12 +178,25 @@ and cap values ``>> s_v`` likewise. ``bucket(v)`` is the bit length of |v|, at m
    ``x - x_before``. P0 comes first, after the previous contour's P0 ((0, 0) at first).
    Then each segment i from A = P_i to N = P_{i+1}: its border flag (context: the previous
    segment's flag, or the first segment); unless it is the last segment (whose N is P0),
-   N's flag (context: A's flag) and N's coordinates after A's (x: model by border flag and
-   bucket of the previous segment's max(|dx|, |dy|); y: by border flag and bucket(dx));
-   then the handles as residuals against a straight segment: ``h = Ca - A - rnd3(d)``,
-   ``r = Cb - N + rnd3(d)`` with d = N - A (h.x by border flag and bucket(max|d|); h.y by
-   bucket(h.x) and bucket(max|d|); r.x and r.y by bucket(max|h|) and bucket(max|d|); border
-   segments have their own models for h.y, r.x and r.y).
+   N's flag (context: A's flag) and N's coordinates after those of the prediction
+   ``B = A + (e >> 1)``, e the previous segment's chord in this contour ((0, 0) for the
+   first segment; ``>>`` an arithmetic shift of each coordinate) (x: model by border flag
+   and bucket of the previous segment's max(|e.x|, |e.y|); y: by border flag and
+   bucket(N.x - A.x)); then the handles as residuals against a straight segment,
+   ``h = Ca - A - rnd3(d)`` and ``r = Cb - N + rnd3(d)`` with d = N - A, turned into the
+   chord's frame: ``(h.a, h.c) = rot_d(h)`` and ``(r.a, r.c) = rot_d(r)`` (a along the
+   chord, c across it), coded as h.a, h.c, ``r.a + ((h.a + 1) >> 1)`` (the two handles
+   tend to grow and shrink together), r.c. Models: h.a by border flag and bucket(max|d|);
+   h.c and the r.a term by bucket(h.a) and bucket(max|d|); r.c by bucket(h.c) and
+   bucket(max|d|); border segments have their own models for h.c, r.a and r.c.
+
+   ``rot_d`` is an integer rotation by minus the angle of d in three lifting shears, exact
+   and exactly invertible. If d.x < 0, or d.x = 0 and d.y < 0, d is negated and s = -1,
+   else s = 1. With L = sqrt(d.x^2 + d.y^2), p = d.y / (L + d.x) and q = -d.y / L, all in
+   IEEE-754 double arithmetic (correctly rounded, no fused multiply-add), and
+   [t] = floor(t + 0.5) of a double: x += [p y]; y += [q x]; x += [p y]; rot_d(v) =
+   (s x, s y). For d = (0, 0) it is the identity. The inverse undoes the shears in
+   reverse order (x -= [p y]; y -= [q x]; x -= [p y], after x, y = s a, s c).
 3. Caps: ``cap_contour[i] - cap_contour[i-1]`` (cc[-1] = -1); the band,
    ``cap_band - level[cc]`` (or ``cap_band - base_band`` for cc = -1); the position after
    the contour's P0 rounded to the cap grid (``(P0 + half) >> s_c``, (0, 0) for cc = -1);
@@ -191,14 +205,23 @@ and cap values ``>> s_v`` likewise. ``bucket(v)`` is the bit length of |v|, at m
 
 The exact contexts and the order of every bit are those of the two implementations, which
 the tests hold to the same bytes. On the corpus photographs this coding takes 40-50 bits a
-segment, everything included: 0.73 of the column layout under zlib (benchmarks/coding.py and
+segment, everything included: 0.71 of the column layout under zlib (benchmarks/coding.py and
 benchmarks/results/coding.md, which measure each step and stream).
+
+Version 2
+---------
+Version 2 has version 3's header and payload; only two predictions of its range-coded
+channels differ (3.6 % more bytes on the corpus photographs): N's coordinates come after A's
+own (B = A), and the handles' residuals h and r are coded as they are, in x and y: h.x by
+border flag and bucket(max|d|), h.y by bucket(h.x) and bucket(max|d|), r.x and r.y by
+bucket(max(|h.x|, |h.y|)) and bucket(max|d|); border segments have their own models for
+h.y, r.x and r.y. This module reads it; ``dumps`` writes version 3.
 
 Version 1
 ---------
 Version 1 (isophote 0.1) has a 17 + 8 L byte channel summary (name .. n_caps and the
 levels: no n_tone, shifts or coded_size, hence no tone curves) and compressions 0, 1 and 2
-only. This module reads it; ``dumps`` writes version 2.
+only. This module reads it; ``dumps`` writes version 3.
 
 Precision
 ---------
@@ -281,8 +304,8 @@ from ..model import Channel, VectorImage
 # ---- magic numbers: every constant of the format, in one place ----------------------------
 
 MAGIC = b"\x89ISOPH\r\n"
-FORMAT_VERSION = 2  # written
-READ_VERSIONS = (1, 2)  # read
+FORMAT_VERSION = 3  # written
+READ_VERSIONS = (1, 2, 3)  # read
 QUANT = 64  # coordinates in 1/QUANT source pixel, cap values in 1/QUANT grey level (finest grids)
 
 COLOUR_CODES = {"grey": 0, "yuv": 1}
@@ -359,13 +382,13 @@ __all__ = [
 
 
 def dumps(vi: VectorImage, compression: str = DEFAULT_COMPRESSION) -> bytes:
-    """Serialise a VectorImage to .isoph bytes (format version 2).
+    """Serialise a VectorImage to .isoph bytes (format version 3).
 
     Parameters
     ----------
     vi : VectorImage
     compression : {"range", "zlib", "lzma", "none"}
-        "range" (the default) range-codes predicted values: 0.73 of "zlib" on photographs,
+        "range" (the default) range-codes predicted values: 0.71 of "zlib" on photographs,
         writing about 2.5 and reading about 1 microsecond a segment; "zlib", "lzma" and
         "none" store the column layout (version 1's), "zlib" faster both ways.
 
@@ -1074,8 +1097,9 @@ def _anchor_shift(anchors: np.ndarray) -> int:
     return best_g
 
 
-def _range_channel(ch: _Checked) -> bytes:
-    """One channel range-coded (compression 3); sets its grids and coded size in ch.info."""
+def _range_channel(ch: _Checked, version: int = FORMAT_VERSION) -> bytes:
+    """One channel range-coded (compression 3) in ``version``'s layout (2 or 3); sets its
+    grids and coded size in ch.info."""
     info = ch.info
     pts = _stored_points(ch)
     info.s_p = _grid_shift(pts)
@@ -1086,7 +1110,7 @@ def _range_channel(ch: _Checked) -> bytes:
     coded, _ = entropy.encode_channel(
         ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), info.g,
         ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c), ch.vq >> info.s_v,
-        info.s_p, info.s_c, info.s_v, info.levels, info.base_band, False,
+        info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version, False,
     )
     info.coded_size = int(coded.shape[0])
     return coded.tobytes()
@@ -1121,7 +1145,7 @@ def _decode(h: _Header, payload) -> VectorImage:
     if h.compression == COMPRESSION_RANGE:
         chunks, pos = [], 0
         for info in h.channels:
-            chunks.append((info, np.frombuffer(payload, np.uint8, info.coded_size, pos).copy()))
+            chunks.append((info, np.frombuffer(payload, np.uint8, info.coded_size, pos).copy(), h.version))
             pos += info.coded_size
         channels = tuple(_map(_decode_range_channel, chunks, sum(c.n_segments for c in h.channels)))
     else:
@@ -1233,11 +1257,11 @@ _RANGE_ERRORS = {
 
 def _decode_range_channel(item) -> Channel:
     """One channel off its range-coded bytes (compression 3)."""
-    info, data = item
+    info, data, version = item
     c, s, k = info.n_contours, info.n_segments, info.n_caps
     (status, where, extra, level, nseg, parent, q, border, cap_contour, cap_band, cq, vq) = \
         entropy.decode_channel(data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels,
-                               info.base_band)
+                               info.base_band, version)
     if status != entropy.OK:
         msg = _RANGE_ERRORS[status].format(where=where, extra=extra, c=c, s=s, L=info.levels.shape[0])
         raise FormatError(f"channel {info.name}: {msg}")
