@@ -457,13 +457,18 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 # the sample is a node (renders at 1x): nv holds this very evaluation
                 out[a, bcol] = nv[i0, j0]
                 continue
-            if use_nv and 0 <= i0 < nr - 1 and 0 <= j0 < nc - 1:
-                if (nband[i0, j0] == b and nband[i0, j0 + 1] == b
-                        and nband[i0 + 1, j0] == b and nband[i0 + 1, j0 + 1] == b):
-                    fx = x - (j0 + 0.5)
-                    fy = y - (i0 + 0.5)
-                    out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[i0, j0] + fx * nv[i0, j0 + 1])
-                                    + fy * ((1.0 - fx) * nv[i0 + 1, j0] + fx * nv[i0 + 1, j0 + 1]))
+            if use_nv and nr > 1 and nc > 1 and -1 <= i0 < nr and -1 <= j0 < nc:
+                # within half a node of the frame, outside the outermost nodes, the edge
+                # cell extends linearly (as the cell next to it would), so the frame gets
+                # no step where exact evaluation would meet interpolation
+                ic = min(max(i0, 0), nr - 2)
+                jc = min(max(j0, 0), nc - 2)
+                if (nband[ic, jc] == b and nband[ic, jc + 1] == b
+                        and nband[ic + 1, jc] == b and nband[ic + 1, jc + 1] == b):
+                    fx = x - (jc + 0.5)
+                    fy = y - (ic + 0.5)
+                    out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[ic, jc] + fx * nv[ic, jc + 1])
+                                    + fy * ((1.0 - fx) * nv[ic + 1, jc] + fx * nv[ic + 1, jc + 1]))
                     continue
             mid = _mid(levels, b)
             reg = -1
