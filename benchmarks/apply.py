@@ -22,13 +22,14 @@ Equalisation (§5, Fig. 10)
     The 8-bit luminance of each photograph (BT.601, as OpenCV's YCrCb) equalised by OpenCV
     (``equalizeHist``) and scikit-image (``exposure.equalize_hist``, rounded to 8 bits),
     against the vector image's Y channel after level reassignment (exact areas only, and
-    with the tone curve measured on a 2x render), rendered at 1x (and, with the tone curve,
-    at 2x) and rounded to 8 bits. Empty bins of 256, KS distance to the uniform
-    distribution, entropy in bits (8 is a rectangular histogram). "KS floor": every single
-    value of the 1x render after reassignment (a cap's flat top) stays one value under any
-    monotone map, costing KS half of its share beyond 1/256, or all of it less 1/256 at an end
-    of the scale (with no empty bin below it): the largest such cost bounds what the tone
-    curve can do.
+    with domes and the tone curve measured on the 1x and 2x renders), rendered at 1x (and,
+    with the tone curve, at 2x) and rounded to 8 bits. Empty bins of 256, KS distance to the
+    uniform distribution, entropy in bits (8 is a rectangular histogram). "KS floor": every
+    single value of the 1x render the tone curve starts from (after reassignment, with
+    domes) stays one value under any monotone map, costing KS half of its share beyond
+    1/256, or all of it less 1/256 at an end of the scale (with no empty bin below it): the
+    largest such cost bounds what the tone curve can do; "plateau floor" is the same for
+    the caps' flat tops (no domes).
 
 Colour depth (§6)
     A smooth window (the 64 x 64 window of least luminance variance) of each photograph's
@@ -43,6 +44,7 @@ previous run (so ``--skip scale,warp,depth`` refreshes the equalisation table al
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 import os
 import sys
 import time
@@ -59,6 +61,7 @@ from isophote import metrics  # noqa: E402
 from isophote.apply import equalise as E  # noqa: E402
 from isophote.apply import warp as W  # noqa: E402
 from isophote.colour import rgb_to_yuv  # noqa: E402
+from isophote.model import DOME  # noqa: E402
 from isophote.render import quantise, render_float  # noqa: E402
 
 SECTIONS = ("scale", "warp", "equalise", "depth")
@@ -267,7 +270,8 @@ def bench_equalise(corpus):
         row["levels_s"] = time.perf_counter() - t
         r = E._render_channel(fast.channel("Y"), w, h)
         row["levels"] = E.histogram_stats(r)
-        row["floor"] = ks_floor(r)
+        row["plateau_floor"] = ks_floor(r)
+        row["floor"] = ks_floor(E._render_channel(replace(fast.channel("Y"), cap_ramp=DOME), w, h))
         t = time.perf_counter()
         info = {}
         eq = E.equalise(vi, info=info).channel("Y")
@@ -279,7 +283,7 @@ def bench_equalise(corpus):
         print(f"equalise {name}: " + ", ".join(
             f"{k} {row[k]['empty']}/{row[k]['ks']:.4f}/{row[k]['entropy']:.3f}"
             for k in ("input", "opencv", "skimage", "levels", "tone", "tone2"))
-            + f"; KS floor {row['floor']:.4f}, {row['knots']} knots", flush=True)
+            + f"; KS floor {row['floor']:.4f} (plateaus {row['plateau_floor']:.4f}), {row['knots']} knots", flush=True)
     return rows
 
 
@@ -290,15 +294,15 @@ EQ_COLUMNS = (("input", "8-bit Y"), ("opencv", "OpenCV"), ("skimage", "scikit-im
 def table_equalise(rows):
     cols = EQ_COLUMNS
     out = ["| image | " + " | ".join(f"{t} empty | {t} KS | {t} bits" for _, t in cols)
-           + " | KS floor | knots | areas s | tone s |",
-           "|---|" + "---|---|---|" * len(cols) + "---|---|---|---|"]
+           + " | KS floor | plateau floor | knots | areas s | tone s |",
+           "|---|" + "---|---|---|" * len(cols) + "---|---|---|---|---|"]
     for r in rows:
         out.append(f"| {r['image']} | " + " | ".join(
             f"{r[k]['empty']} | {r[k]['ks']:.4f} | {r[k]['entropy']:.3f}" for k, _ in cols)
-            + f" | {r['floor']:.4f} | {r['knots']} | {r['levels_s']:.2f} | {r['tone_s']:.1f} |")
+            + f" | {r['floor']:.4f} | {r['plateau_floor']:.4f} | {r['knots']} | {r['levels_s']:.2f} | {r['tone_s']:.1f} |")
     out.append("| **mean** | " + " | ".join(
         f"**{np.mean([r[k]['empty'] for r in rows]):.1f}** | **{np.mean([r[k]['ks'] for r in rows]):.4f}** | "
-        f"**{np.mean([r[k]['entropy'] for r in rows]):.3f}**" for k, _ in cols) + " | | | | |")
+        f"**{np.mean([r[k]['entropy'] for r in rows]):.3f}**" for k, _ in cols) + " | | | | | |")
     return out
 
 
@@ -398,15 +402,13 @@ def main(argv=None):
         parts["equalise"] = ["## Histogram equalisation (Fig. 10)", "",
                              "Luminance histograms, 256 bins: empty bins, KS distance to the uniform, entropy "
                              "(bits). isophote: the Y channel rendered at 1x after level reassignment (areas: "
-                             "exact Green's-theorem areas only; tone: the areas, then the tone curve measured "
-                             "on a 2x render that spreads every band's values evenly between its levels; tone "
-                             "2x: the same image rendered at 2x). KS floor: what no monotone map of the 1x render "
-                             "can beat without emptying bins, as every single value (a cap's flat top) stays "
-                             "one value, costing half its share beyond one bin's, or all of it less one bin at "
-                             "an end of the scale (astronaut's black background). The curve is measured on the 2x "
-                             "render: where a 1x render puts a plateau at another value than the 2x render "
-                             "does (the renderer labels regions on a coarser node grid at 1x), the 1x column "
-                             "falls outside it. "
+                             "exact Green's-theorem areas only, caps as encoded; tone: the areas, caps made "
+                             "domes, then one tone curve measured on the 1x and 2x renders pooled; tone 2x: the "
+                             "same image rendered at 2x). KS floor: what no monotone map of the 1x render the "
+                             "curve starts from (domes) can beat without emptying bins, as every single value "
+                             "stays one value, costing half its share beyond one bin's, or all of it less one "
+                             "bin at an end of the scale; plateau floor: the same with the caps' flat tops "
+                             "(astronaut's black background is one value), what a tone curve alone could reach. "
                              "The vector image's own render before equalisation: "
                              + ", ".join(f"{r['image']} {r['original']['empty']}/{r['original']['ks']:.3f}/"
                                          f"{r['original']['entropy']:.2f}" for r in rows) + ".", ""]

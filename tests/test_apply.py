@@ -3,6 +3,7 @@ orientation, caps, background), colour depth, and their command-line doors. Smal
 images with known answers; the corpus numbers live in benchmarks/apply.py."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from isophote.apply import equalise as E
 from isophote.errors import OptionError
 from isophote.apply import warp as W
 from isophote.imageio import write_image
-from isophote.model import Channel, VectorImage
+from isophote.model import CAP_RAMP, DOME, Channel, VectorImage
 
 H, WD = 40, 56  # not square, so that transposition bugs show
 
@@ -126,19 +127,34 @@ def test_equalise_moves_levels_not_contours(vi):
     assert fast.channel("Y").tone is None and np.array_equal(fast.channel("Y").levels, y1.levels)
 
 
-def test_tone_curve_keeps_the_levels_fixed(vi):
+def test_tone_curve_is_monotone_and_equalising_twice_changes_nothing(vi):
     y = E.equalise(vi).channel("Y")
     t = y.tone
     assert t.ndim == 2 and t.shape[1] == 2 and t.shape[0] >= 2
     assert np.all(np.diff(t[:, 0]) > 0) and np.all(np.diff(t[:, 1]) >= 0)
     assert t.min() >= 0 and t.max() <= 255 and t[0, 0] == 0 and t[-1, 0] == 255
-    for level in y.levels:  # a knot (l, l) at every level: contours keep their values
-        k = np.flatnonzero(t[:, 0] == level)
-        assert k.size == 1 and t[k[0], 1] == level
-    assert np.array_equal(y.apply_tone(y.levels), y.levels)
+    assert y.cap_ramp == DOME and vi.channel("Y").cap_ramp == CAP_RAMP  # domes (model.py, Caps)
+    assert E.equalise(vi, refine_render=False).channel("Y").cap_ramp == CAP_RAMP
     # equalising again gives the same levels and the same curve (the old curve is dropped)
     again = E.equalise(E.equalise(vi)).channel("Y")
     assert np.array_equal(again.levels, y.levels) and np.array_equal(again.tone, t)
+
+
+def test_domes_let_the_curve_spread_a_plateau():
+    """A flat disc holds 20 % of the image at one value: as a plateau no monotone curve can
+    spread it (KS >= 0.1); as a dome the equalised histogram is flat."""
+    h = w = 128
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    img = 20 + 0.8 * xx + 0.45 * yy
+    disc = np.hypot(xx - 60.4, yy - 67.4) < 32.4  # ~20 % of the image
+    img[disc] = 230.0
+    vi = isophote.encode(np.clip(img, 0, 255))
+    plain = replace(E.equalise(vi), channels=(replace(E.equalise(vi).channel("Y"), cap_ramp=CAP_RAMP),))
+    flat = E.histogram_stats(E._render_channel(E.with_tone(plain.channel("Y"), w, h), w, h))
+    assert flat["ks"] > 0.08
+    info = {}
+    E.equalise(vi, info=info)
+    assert info["measured"]["empty"] == 0 and info["measured"]["ks"] < 0.01 and info["measured"]["entropy"] > 7.95
 
 
 def test_warp_keeps_the_tone_curve(vi):
@@ -231,9 +247,11 @@ def test_equalised_histogram_is_flatter_than_the_pixel_way(grey_vi):
 
 
 def test_equalised_file_round_trips(vi, tmp_path):
-    eq = E.equalise(vi, refine_render=False)
-    eq.save(tmp_path / "eq.isoph")
-    assert isophote.load(tmp_path / "eq.isoph").equals(eq)
+    for eq in (E.equalise(vi, refine_render=False), E.equalise(vi)):
+        eq.save(tmp_path / "eq.isoph")
+        back = isophote.load(tmp_path / "eq.isoph")
+        assert back.equals(eq) and back.channel("Y").cap_ramp == eq.channel("Y").cap_ramp
+        assert np.array_equal(back.render(), eq.render())
 
 
 # ------------------------------------------------------------------------ warps: maps

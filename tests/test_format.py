@@ -205,9 +205,9 @@ def spec_file(channels, *, width=40, height=30, colour=0, depth=8, compression=0
     """A file from spec-level fields; every field can lie, the checksums are always right.
 
     Counts default to the true ones; a channel dict may override n_contours, n_segments,
-    n_caps, n_levels, n_tone (and give raw ``sections``; for compression 3, ``coded`` bytes,
-    ``coded_size`` and the grids s_p, g, s_c, s_v). ``version=1`` writes version 1's header;
-    ``version=2`` version 2's range-coded layout (its header is version 3's).
+    n_caps, n_levels, n_tone, cap_ramp (and give raw ``sections``; for compression 3, ``coded``
+    bytes, ``coded_size`` and the grids s_p, g, s_c, s_v). ``version=1`` writes version 1's
+    header; ``version=2`` version 2's (version 3's less cap_ramp) and range-coded layout.
     """
     raw = b"".join(spec_sections(c) for c in channels) + raw_extra
     grids, coded = [], []
@@ -248,6 +248,8 @@ def spec_file(channels, *, width=40, height=30, colour=0, depth=8, compression=0
                                 c.get("n_tone", len(tone)), s_p, g, s_c, s_v, c.get("coded_size", len(data)))
         body += struct.pack(f"<{len(c['levels'])}d", *c["levels"])
         body += b"".join(struct.pack("<dd", x, y) for x, y in tone)
+        if version >= 3:
+            body += struct.pack("<d", c.get("cap_ramp", 2.0))
     body += header_extra
     head = b"\x89ISOPH\r\n" + struct.pack("<HHI", version, reserved, 16 + len(body) + 4) + body
     return head + struct.pack("<I", zlib.crc32(head)) + payload + file_extra
@@ -847,6 +849,29 @@ def test_tone_round_trips_and_none_stays_none():
     big = np.c_[np.arange(isoph.MAX_TONE_KNOTS) * 0.0625, np.arange(isoph.MAX_TONE_KNOTS) // 3]
     vi2 = VectorImage(vi.width, vi.height, "grey", (replace(vi.channels[0], name="Y", tone=big),))
     assert isoph.loads(isoph.dumps(vi2)).equals(vi2)
+
+
+def test_cap_ramp_round_trips_and_older_versions_have_the_default():
+    from isophote.model import CAP_RAMP, DOME
+
+    vi = random_image(42, "yuv", tone=False)
+    chans = (replace(vi.channels[0], cap_ramp=DOME), replace(vi.channels[1], cap_ramp=3.25)) + vi.channels[2:]
+    vi = VectorImage(vi.width, vi.height, vi.colour, chans, vi.source_depth)
+    for compression in ("range", "zlib", "lzma", "none"):
+        out = isoph.loads(isoph.dumps(vi, compression=compression))
+        assert out.equals(vi) and [c.cap_ramp for c in out.channels] == [DOME, 3.25, CAP_RAMP]
+    assert [c["cap_ramp"] for c in isoph.read_info(isoph.dumps(vi))["channels"]] == ["dome", 3.25, 2.0]
+    # a version 2 file has no cap_ramp: every channel has the default
+    ch = one_channel()
+    assert isoph.loads(spec_file([ch], version=2)).channels[0].cap_ramp == CAP_RAMP
+    assert isoph.loads(spec_file([dict(ch, cap_ramp=float("inf"))])).channels[0].cap_ramp == DOME
+    for bad in (0.0, -1.0, float("nan"), float("-inf")):
+        with pytest.raises(FormatError, match="cap ramp"):
+            isoph.loads(spec_file([dict(ch, cap_ramp=bad)]))
+        with pytest.raises(ValueError, match="cap ramp"):  # the writer's error for a bad image
+            isoph.dumps(VectorImage(vi.width, vi.height, "grey", (replace(vi.channels[0], name="Y", cap_ramp=bad),)))
+    with pytest.raises(ValueError, match="cap_ramp"):
+        isoph.dumps(VectorImage(vi.width, vi.height, "grey", (replace(vi.channels[0], name="Y", cap_ramp="x"),)))
 
 
 def test_coarse_grids_are_found_and_cost_less():

@@ -178,6 +178,31 @@ def test_disc_inner_plateau_comes_back(scale):
     assert np.abs(out[r < 7.0] - 200.0).max() <= 1.0
 
 
+
+@pytest.mark.parametrize("scale", [1, 2])
+def test_dome_caps_rise_to_their_value_at_the_centre(scale):
+    from isophote.model import DOME
+
+    vi = isophote.encode(disc_image())
+    ch = vi.channels[0]
+    top = int(np.argmax(ch.cap_value))
+    dome = replace(vi, channels=(replace(ch, cap_ramp=DOME),))
+    out = render_float(dome, scale=scale)[..., 0]
+    yy, xx = (np.mgrid[0 : 48 * scale, 0 : 48 * scale] + 0.5) / scale
+    r = np.hypot(xx - 24.3, yy - 23.6)
+    # no plateau: the profile keeps rising towards the centre, where it reaches the cap value
+    inner = out[r < 7.0]
+    assert np.unique(np.round(inner, 2)).size > 20 * scale
+    ring = [out[(r >= a) & (r < a + 1)].mean() for a in range(0, 9, 2)]
+    assert all(a > b + 0.2 for a, b in zip(ring, ring[1:])), ring
+    assert ring[0] - ring[-1] > 2.0
+    assert abs(out[r < 1.0].mean() - ch.cap_value[top]) <= 3.0
+    level = ch.levels[ch.cap_band[top] - 1]
+    assert inner.min() >= level - 1.0 and inner.max() <= ch.cap_value[top] + 1.0
+    # the contours stay where they were (the surround, a pit against the frame, is a dome too)
+    base = render_float(vi, scale=scale)[..., 0]
+    assert np.array_equal(out >= 125.0, base >= 125.0)
+
 @pytest.mark.parametrize("scale", [1, 2, 4])
 def test_cap_peaks_at_its_value(scale):
     yy, xx = centres(32, 32)

@@ -162,6 +162,23 @@ def test_tone_curve_round_trips(small):
     assert all(ch.tone is None for ch in svg.from_svg(text).channels)
 
 
+def test_cap_ramp_round_trips(small):
+    from dataclasses import replace
+
+    from isophote.model import DOME
+
+    chans = {"Y": DOME, "U": 3.25}
+    vi = replace(small, channels=tuple(replace(ch, cap_ramp=chans.get(ch.name, ch.cap_ramp)) for ch in small.channels))
+    text = svg.to_svg(vi)
+    assert 'iso:cap-ramp="dome"' in text and 'iso:cap-ramp="3.25"' in text and text.count("iso:cap-ramp") == 2
+    back = svg.from_svg(text)
+    assert back.equals(vi) and back.channel("Y").cap_ramp == DOME and back.channel("V").cap_ramp == 2.0
+    assert np.array_equal(render_float(back), render_float(vi))
+    assert "iso:cap-ramp" not in svg.to_svg(small)
+    for bad in ("0", "-1", "dome dome", "1 2", "nan", "x"):
+        _bad(text.replace('iso:cap-ramp="3.25"', f'iso:cap-ramp="{bad}"'))
+
+
 @pytest.mark.parametrize("tone", [
     "0 0 255", "0 0", "x 0 255 255", "0 0 nan 255", "5 0 4 255", "0 9 255 8", "0 0 300 255",
     "-1 0 255 255", "0 0 255 1e999",

@@ -335,15 +335,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help="histogram-equalise an .isoph by level reassignment (§5)",
                        description="Equalise the luminance histogram of an .isoph file by giving its Y levels "
                        "new values (the exact area above each level, from the Bezier chains, through the "
-                       "inverse of a rectangular histogram), then give Y a tone curve, measured on a 2x "
-                       "render, that spreads the values inside every band evenly between its two levels. "
-                       "Contours are unchanged; U and V are kept. Prints the rendered 8-bit Y histogram's "
+                       "inverse of a rectangular histogram), then make Y's caps domes (no flat plateaus) "
+                       "and give Y a tone curve, measured on its 1x and 2x renders, that makes the rendered "
+                       "histogram flat. Contours are unchanged; U and V are kept. Prints the rendered 8-bit Y histogram's "
                        "empty bins, KS distance to the uniform and entropy.")
     p.add_argument("input", metavar="IN.isoph", help="input .isoph file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.isoph", help="output .isoph file")
     p.add_argument("--fast", action="store_true",
-                   help="exact areas only: no rendering and no tone curve (a less rectangular histogram, "
-                   "instant)")
+                   help="exact areas only: no rendering, no domes, no tone curve (a less rectangular "
+                   "histogram, instant)")
     p.add_argument("--json", action="store_true", help="print the histogram measures as a JSON object")
     p.set_defaults(func=cmd_equalize)
 
@@ -825,7 +825,7 @@ def cmd_equalize(args) -> int:
     t0 = time.perf_counter()
     vi = _load(args.input)
     progress("equalising (exact level areas)..." if args.fast
-             else "equalising (exact level areas, then a tone curve from a 2x render)...")
+             else "equalising (exact level areas, then domes and a tone curve from 1x and 2x renders)...")
     info = {}
     out = equalise(vi, refine_render=not args.fast, info=info)
     save(out, args.output)

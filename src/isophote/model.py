@@ -38,7 +38,10 @@ Caps
     the distance to its contour and d_max the largest such distance inside it: a ramp of at
     most CAP_RAMP pixels from the level up (or down) to a plateau at cap_value, or a cone for
     caps narrower than that. The encoder chooses cap_value by least squares over the region's
-    samples. ``cap_xy`` is the region's extremum sample (it identifies the region), in band
+    samples. A channel may set its own ``cap_ramp`` instead of CAP_RAMP; ``inf`` (DOME) makes
+    every cap a dome that reaches cap_value only at its farthest point from the contour, so
+    that no cap is a flat plateau (equalisation uses it: a plateau is a single value that no
+    tone curve can spread). ``cap_xy`` is the region's extremum sample (it identifies the region), in band
     ``cap_band``; ``cap_contour`` is the region's outer contour (-1 for the root region).
     A region with no contour at all is flat at cap_value.
 
@@ -64,6 +67,7 @@ import numpy as np
 
 CHANNEL_NAMES = ("Y", "U", "V", "A")
 CAP_RAMP = 2.0  # pixels: the longest ramp of a cap's profile (see Caps above)
+DOME = float("inf")  # a channel's cap_ramp for caps without a plateau (see Caps above)
 
 
 def apply_tone_curve(values: np.ndarray, tone) -> np.ndarray:
@@ -103,6 +107,9 @@ class Channel:
         Band of the root region (see the module docstring).
     tone : (K, 2) float64 ndarray or None
         Monotone tone curve applied to rendered values (see the module docstring).
+    cap_ramp : float
+        The longest ramp of the caps' profiles in pixels, > 0; CAP_RAMP unless set, DOME
+        (inf) for caps without a plateau (see the module docstring, Caps).
     """
 
     name: str
@@ -118,6 +125,7 @@ class Channel:
     cap_value: np.ndarray
     base_band: int = 0
     tone: np.ndarray | None = None
+    cap_ramp: float = CAP_RAMP
 
     @property
     def n_contours(self) -> int:
@@ -155,7 +163,7 @@ class Channel:
 
     def equals(self, other: "Channel") -> bool:
         """Exact equality of every field (used by round-trip tests)."""
-        if self.name != other.name or self.base_band != other.base_band:
+        if self.name != other.name or self.base_band != other.base_band or self.cap_ramp != other.cap_ramp:
             return False
         for f in (
             "levels", "contour_level", "offsets", "points", "border", "parent",

@@ -55,8 +55,8 @@ Caps
     source) are mapped, and the one deepest inside the canvas becomes the cap's point; a
     cap whose region left the canvas altogether is dropped.
 
-The ramp of a cap profile is CAP_RAMP output pixels after a warp (it is a property of the
-picture, model.py), so an enlarging warp has sharper cap shoulders than rendering the
+The ramp of a cap profile is the channel's cap_ramp (CAP_RAMP unless set; DOME stays
+DOME) in output pixels after a warp (it is a property of the picture, model.py), so an enlarging warp has sharper cap shoulders than rendering the
 unwarped image at a larger scale; to enlarge without any other change, render with
 ``scale``.
 """
@@ -913,6 +913,7 @@ def _warp_channel(ch, vi, t, w, h, reflect, moved_frame, cover, bg_value, tol) -
         cap_value=np.zeros(0),
         base_band=base_band,
         tone=ch.tone,  # a value curve (equalisation's): the geometry moves, the values stay
+        cap_ramp=ch.cap_ramp,  # in output pixels, as the module docstring says; DOME stays DOME
     )
     # caps
     cap_xy, cap_keep = _move_caps(ch, vi, t, w, h)

@@ -60,7 +60,7 @@ Header body
     48     u32   payload_crc    CRC-32 of the payload_size stored payload bytes
     52     u32   meta_size      0 .. MAX_META_BYTES
     56     ...   meta           meta_size bytes: a UTF-8 JSON object (nothing if meta_size 0)
-    then n_channels channel summaries of 31 + 8 L + 16 T bytes each:
+    then n_channels channel summaries of 39 + 8 L + 16 T bytes each:
            u8    name           ASCII "Y", "U", "V" or "A"
            u16   n_levels       L, 0 .. MAX_LEVELS
            u16   base_band      band of the root region (Channel.base_band), 0 .. L
@@ -76,6 +76,8 @@ Header body
            f64   levels[L]      finite, strictly increasing
            f64   tone[2 T]      knots x0, y0, x1, y1, ...: finite, x strictly increasing,
                                 y non-decreasing (Channel.tone)
+           f64   cap_ramp       the caps' longest ramp in pixels (Channel.cap_ramp): > 0,
+                                finite or +infinity (DOME: caps without a plateau)
     then   u32   header_crc     CRC-32 of bytes [0, header_size - 4)
 
 Both quanta must be 64: they are the finest grids, and the shifts make coarser ones per
@@ -210,8 +212,9 @@ benchmarks/results/coding.md, which measure each step and stream).
 
 Version 2
 ---------
-Version 2 has version 3's header and payload; only two predictions of its range-coded
-channels differ (3.6 % more bytes on the corpus photographs): N's coordinates come after A's
+Version 2 has version 3's header and payload, less the channel summaries' cap_ramp (31 + 8 L
++ 16 T bytes each; every channel has model.py's CAP_RAMP); only two predictions of its
+range-coded channels differ (3.6 % more bytes on the corpus photographs): N's coordinates come after A's
 own (B = A), and the handles' residuals h and r are coded as they are, in x and y: h.x by
 border flag and bucket(max|d|), h.y by bucket(h.x) and bucket(max|d|), r.x and r.y by
 bucket(max(|h.x|, |h.y|)) and bucket(max|d|); border segments have their own models for
@@ -241,8 +244,8 @@ Never trust a file. ``loads`` rejects with a FormatError (a LimitError for a siz
 limit) whose one-line message says what is wrong: bad magic; truncation or trailing bytes;
 header or payload checksum mismatch; unknown version, reserved bits, compression, quanta,
 shifts, colour, depth or channel layout; a count over its limit or not matching the payload
-size; levels not finite and strictly increasing; a bad tone curve; a base band outside [0,
-L]; a payload that does not decompress to exactly raw_size bytes, or range-coded data that
+size; levels not finite and strictly increasing; a bad tone curve or cap ramp; a base band
+outside [0, L]; a payload that does not decompress to exactly raw_size bytes, or range-coded data that
 ends early or has bytes left over; a contour level outside [0, L); segment counts that do
 not add up to S; a parent outside [-1, C), a parent candidate that does not exist, or parents
 that form a cycle; a cap band outside [0, L], a cap contour outside [-1, C); a coordinate or
@@ -299,7 +302,7 @@ import numpy as np
 from .._kernels import entropy
 from ..errors import FormatError, LimitError
 from ..imageio import atomic_write_bytes
-from ..model import Channel, VectorImage
+from ..model import CAP_RAMP, Channel, VectorImage
 
 # ---- magic numbers: every constant of the format, in one place ----------------------------
 
@@ -357,12 +360,13 @@ _FIXED = struct.Struct("<IIBBBBHHQQII")  # width .. meta_size: offsets 16 .. 56
 # anchor_shift, cap_shift, value_shift, coded_size
 _CHANNEL = struct.Struct("<cHHIIIHBBBBQ")
 _CHANNEL_V1 = struct.Struct("<cHHIII")  # name .. n_caps
+_CAP_RAMP = struct.Struct("<d")  # after the levels and tone knots (version 3)
 _CRC = struct.Struct("<I")
 PREAMBLE_BYTES = _PREAMBLE.size  # 16
 _MIN_HEADER_BYTES = PREAMBLE_BYTES + _FIXED.size + _CHANNEL_V1.size + _CRC.size
 MAX_HEADER_BYTES = (
     PREAMBLE_BYTES + _FIXED.size + MAX_META_BYTES
-    + MAX_CHANNELS * (_CHANNEL.size + 8 * MAX_LEVELS + 16 * MAX_TONE_KNOTS) + _CRC.size
+    + MAX_CHANNELS * (_CHANNEL.size + 8 * MAX_LEVELS + 16 * MAX_TONE_KNOTS + _CAP_RAMP.size) + _CRC.size
 )
 
 assert entropy.LIMIT == COORD_LIMIT == CAP_VALUE_LIMIT
@@ -467,6 +471,7 @@ def read_info(path_or_bytes) -> dict:
         (the file size), ``compression`` ("none", "zlib", "lzma" or "range"), ``meta``
         (dict) and ``channels``: a list of ``{"name", "levels" (list of float),
         "base_band", "contours", "segments", "caps", "tone_knots" (0: no tone curve),
+        "cap_ramp" (pixels, or "dome"),
         "point_grid" (control points on the 1/point_grid px grid), "coded_bytes" (range-coded
         bytes, 0 for the other compressions)}``.
 
@@ -503,6 +508,7 @@ def read_info(path_or_bytes) -> dict:
                 "segments": c.n_segments,
                 "caps": c.n_caps,
                 "tone_knots": 0 if c.tone is None else int(c.tone.shape[0]),
+                "cap_ramp": "dome" if c.cap_ramp == float("inf") else float(c.cap_ramp),
                 "point_grid": QUANT >> c.s_p,
                 "coded_bytes": c.coded_size,
             }
@@ -596,13 +602,13 @@ def _raw_channel_bytes(c: int, s: int, k: int) -> int:
 
 class _ChannelInfo:
     __slots__ = ("name", "levels", "base_band", "n_contours", "n_segments", "n_caps", "tone",
-                 "s_p", "g", "s_c", "s_v", "coded_size")
+                 "s_p", "g", "s_c", "s_v", "coded_size", "cap_ramp")
 
     def __init__(self, name, levels, base_band, n_contours, n_segments, n_caps, tone=None,
-                 s_p=0, g=0, s_c=0, s_v=0, coded_size=0):
+                 s_p=0, g=0, s_c=0, s_v=0, coded_size=0, cap_ramp=CAP_RAMP):
         self.name, self.levels, self.base_band = name, levels, base_band
         self.n_contours, self.n_segments, self.n_caps = n_contours, n_segments, n_caps
-        self.tone, self.coded_size = tone, coded_size
+        self.tone, self.coded_size, self.cap_ramp = tone, coded_size, cap_ramp
         self.s_p, self.g, self.s_c, self.s_v = s_p, g, s_c, s_v
 
 
@@ -628,6 +634,7 @@ def _header_bytes(width, height, colour, depth, infos, compression, payload, raw
         body += np.asarray(c.levels, dtype="<f8").tobytes()
         if c.tone is not None:
             body += np.ascontiguousarray(c.tone, dtype="<f8").tobytes()
+        body += _CAP_RAMP.pack(c.cap_ramp)
     header_size = PREAMBLE_BYTES + len(body) + _CRC.size
     head = _PREAMBLE.pack(MAGIC, FORMAT_VERSION, 0, header_size) + bytes(body)
     return head + _CRC.pack(zlib.crc32(head))
@@ -757,8 +764,12 @@ def _parse_header(data: bytes, file_size: int) -> _Header:
             tone = np.frombuffer(take(16 * n_tone, f"channel {label} tone"), dtype="<f8")
             tone = tone.astype(np.float64).reshape(n_tone, 2)
             _check_tone(tone, label)
+        cap_ramp = CAP_RAMP
+        if version >= 3:
+            (cap_ramp,) = _CAP_RAMP.unpack(take(_CAP_RAMP.size, f"channel {label} cap ramp"))
+            _check_cap_ramp(cap_ramp, label)
         channels.append(_ChannelInfo(label, levels, base_band, n_contours, n_segments, n_caps, tone,
-                                     s_p, g, s_c, s_v, coded_size))
+                                     s_p, g, s_c, s_v, coded_size, cap_ramp))
     if pos != end:
         raise FormatError(f"header has {end - pos} unexpected byte(s) after the channel summaries")
     names = tuple(c.name for c in channels)
@@ -850,6 +861,12 @@ def _check_levels(levels: np.ndarray, label: str) -> None:
         raise FormatError(f"channel {label}: a level is not finite")
     if levels.shape[0] > 1 and not np.all(levels[1:] > levels[:-1]):
         raise FormatError(f"channel {label}: levels are not strictly increasing")
+
+
+def _check_cap_ramp(cap_ramp: float, label: str) -> None:
+    """A cap ramp: positive, finite or +infinity (DOME)."""
+    if not cap_ramp > 0.0:  # NaN fails too
+        raise FormatError(f"channel {label}: cap ramp {cap_ramp!r} is not positive")
 
 
 def _check_tone(tone: np.ndarray, label: str) -> None:
@@ -994,6 +1011,12 @@ def _checked_channel(ch: Channel) -> _Checked:
     if tone is not None:
         tone = np.asarray(tone, dtype=np.float64)
         _check_tone(tone, label)
+    cap_ramp = getattr(ch, "cap_ramp", CAP_RAMP)
+    try:
+        cap_ramp = float(cap_ramp)
+    except (TypeError, ValueError):
+        raise FormatError(f"channel {label}: cap_ramp must be a number, not {cap_ramp!r}") from None
+    _check_cap_ramp(cap_ramp, label)
 
     level = _int_array(ch.contour_level, label, "contour_level")
     c = level.shape[0]
@@ -1035,7 +1058,7 @@ def _checked_channel(ch: Channel) -> _Checked:
         bad = int(np.flatnonzero(np.any(q[offsets[:-1]] != q[offsets[1:] - 1], axis=1))[0])
         raise FormatError(f"channel {label}: contour {bad} is not closed (last point != first)")
     out = _Checked()
-    out.info = _ChannelInfo(label, levels, base_band, c, s, k, tone)
+    out.info = _ChannelInfo(label, levels, base_band, c, s, k, tone, cap_ramp=cap_ramp)
     out.level, out.offsets, out.nseg, out.q = level, offsets, nseg, q
     out.border = border.astype(bool)
     out.parent, out.cap_band, out.cap_contour = parent, cap_band, cap_contour
@@ -1236,6 +1259,7 @@ def _channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq,
         cap_value=vq.astype(np.float64) / QUANT,
         base_band=info.base_band,
         tone=None if info.tone is None else info.tone.copy(),
+        cap_ramp=float(info.cap_ramp),
     )
 
 

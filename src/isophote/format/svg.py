@@ -31,7 +31,7 @@ Layout::
       <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
          transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
          iso:base-band="0" iso:caps="contour band x y value ..."
-         [iso:tone="x0 y0 x1 y1 ..."]>
+         [iso:tone="x0 y0 x1 y1 ..."] [iso:cap-ramp="R" or "dome"]>
         <path iso:c="k level parent orientation segments" [iso:b="0011..."]
               fill="#rrggbb" d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
         ...
@@ -70,6 +70,10 @@ the curve's knots as "x y" pairs in order, shortest round-trip decimals (exact):
 two knots, at most MAX_TONE_KNOTS (.isoph's limit), every number in [0, 255], x strictly increasing, y
 non-decreasing. No attribute: no tone curve. The preview's colours are taken from the
 render, so they show the tone curve too.
+
+Cap ramp: ``iso:cap-ramp`` (only on a channel whose Channel.cap_ramp is not model.py's
+CAP_RAMP) is the ramp in pixels, a positive number, or "dome" for DOME (caps without a
+plateau, as equalisation leaves them). No attribute: CAP_RAMP.
 
 Preview colours: each Y region's mean over a 1x render of the image (by default the flat
 fill), or, where the colour drifts across a region enough to matter (GRADIENT_MIN_GAIN), a
@@ -130,7 +134,7 @@ import numpy as np
 
 from ..errors import FormatError, LimitError
 from ..imageio import atomic_write_bytes
-from ..model import Channel, VectorImage
+from ..model import CAP_RAMP, DOME, Channel, VectorImage
 from .isoph import (
     CAP_VALUE_LIMIT,
     CHANNEL_LAYOUTS,
@@ -326,6 +330,8 @@ def _check_image(vi) -> None:
             raise FormatError(f"channel {label}: base band {ch.base_band} is outside [0, {levels.shape[0]}]")
         if ch.tone is not None:
             _check_tone(np.asarray(ch.tone), label)
+        if not float(ch.cap_ramp) > 0.0:
+            raise FormatError(f"channel {label}: cap_ramp must be positive (or DOME), not {ch.cap_ramp!r}")
 
 
 def _check_tone(tone: np.ndarray, label: str) -> None:
@@ -375,6 +381,8 @@ def _channel_layer(ch: Channel, fills) -> list:
         attrs.append(f'iso:caps="{caps}"')
     if ch.tone is not None:
         attrs.append(f'iso:tone="{" ".join(_nums(np.asarray(ch.tone, np.float64).reshape(-1)))}"')
+    if float(ch.cap_ramp) != CAP_RAMP:
+        attrs.append(f'iso:cap-ramp="{"dome" if math.isinf(ch.cap_ramp) else repr(float(ch.cap_ramp))}"')
     if fills is None:
         attrs.append(f'style="display:none" fill="none" stroke="{UV_STROKES.get(label, "#000")}" '
                      f'stroke-width="{LOCAL_SCALE // 4}"')
@@ -1079,9 +1087,9 @@ def _one_chain(d: str, label: str, k: int):
 class _ChannelData:
     """What the reader gathers for one channel layer."""
 
-    def __init__(self, name, levels, base_band, caps, group_m, tone=None):
+    def __init__(self, name, levels, base_band, caps, group_m, tone=None, cap_ramp=CAP_RAMP):
         self.name, self.levels, self.base_band = name, levels, base_band
-        self.caps, self.group_m, self.tone = caps, group_m, tone
+        self.caps, self.group_m, self.tone, self.cap_ramp = caps, group_m, tone, cap_ramp
         # k -> [chain (None until built), level, parent, area sign, segments as written,
         #       border text, matrix, canonical parts, markers]
         self.contours = {}
@@ -1202,7 +1210,14 @@ class _Reader:
                 raise LimitError(f"channel {name}: {len(knots) // 2} tone knots exceed the limit of {MAX_TONE_KNOTS}")
             tone = np.array(knots, np.float64).reshape(-1, 2)
             _check_tone(tone, name)
-        ch = _ChannelData(name, levels, bb[0], caps, m, tone)
+        cap_ramp = CAP_RAMP
+        if el.get(_I + "cap-ramp") is not None:
+            text = el.get(_I + "cap-ramp").strip()
+            ramp = [DOME] if text == "dome" else _attr_floats(text, f"channel {name} cap ramp")
+            if len(ramp) != 1 or not ramp[0] > 0.0:
+                raise FormatError(f"channel {name}: iso:cap-ramp must be one positive number or \"dome\"")
+            cap_ramp = float(ramp[0])
+        ch = _ChannelData(name, levels, bb[0], caps, m, tone, cap_ramp)
         self.channels.append(ch)
         return ch
 
@@ -1338,6 +1353,7 @@ class _Reader:
             cap_value=cap_value.astype(np.float64),
             base_band=int(cd.base_band),
             tone=cd.tone,
+            cap_ramp=cd.cap_ramp,
         )
 
     def _frame_segments(self, chain: np.ndarray) -> np.ndarray:

@@ -14,7 +14,6 @@ from .._kernels.diffuse import (
     MODE_EUCLIDEAN, MODE_GEODESIC, MODE_MANHATTAN, band_widths, evaluate, label_nodes, offsets, propagate,
     region_caps, seed,
 )
-from ..model import CAP_RAMP
 from .._kernels.raster import rasterise
 
 MODES = {"euclidean": MODE_EUCLIDEAN, "manhattan": MODE_MANHATTAN, "geodesic": MODE_GEODESIC}
@@ -36,6 +35,7 @@ class NodeField:
     nv: np.ndarray  # (nr, nc) float32 fill value at each node
     smooth: bool  # G1 profiles across isolines (fill "diffusion") or straight lines ("linear")
     bw: np.ndarray  # (nr, nc, 2) float32 band width and step per node (band_widths), for G1
+    ramp: float  # the caps' longest ramp in node units (Channel.cap_ramp * r)
 
 
 def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> NodeField:
@@ -55,9 +55,10 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> Nod
     # the fill at the nodes: samples surrounded by nodes of their own band interpolate it
     nr, nc = band.shape
     nv = np.empty((nr, nc), np.float32)
-    bw = band_widths(F, band, labels, dmax, capv, CAP_RAMP * r) if smooth else np.zeros((0, 0, 2), np.float32)
+    ramp = float(ch.cap_ramp) * r  # inf (domes) stays inf
+    bw = band_widths(F, band, labels, dmax, capv, ramp) if smooth else np.zeros((0, 0, 2), np.float32)
     evaluate(
-        F, band, labels, dmax, capv, CAP_RAMP * r, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
+        F, band, labels, dmax, capv, ramp, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
         ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw,
     )
-    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw)
+    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp)
