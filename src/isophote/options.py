@@ -11,16 +11,16 @@ from dataclasses import dataclass, fields, replace
 from .errors import OptionError
 
 # Presets: the values of the fields left at None. Measured on the five corpus photographs
-# (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, .isoph format v2):
+# (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, .isoph format v3):
 #   paper    §1 of the paper: Y every 10 around 127.5 (25 levels), U and V every 5 (49), one
 #            global sample error (the quantisation error), no pruning, ribbon <= 0.5 px.
-#            2.80 x PNG, PSNR 40.7 dB, SSIMULACRA2 73.4, FLIP 0.038; 135k segments.
+#            2.70 x PNG, PSNR 40.7 dB, SSIMULACRA2 73.4, FLIP 0.038; 135k segments.
 #   compact  the paper's levels, with a per-pixel eps of 3 x the local noise deviation
 #            (encoder/noise.py; capped at 0.4 level spacings), a ribbon of up to 1 px, and the
 #            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py).
-#            1.44 x PNG, 38.3 dB, SSIMULACRA2 70.8 ("high quality"), FLIP 0.048; 51k segments.
+#            1.43 x PNG, 38.3 dB, SSIMULACRA2 70.8 ("high quality"), FLIP 0.048; 51k segments.
 #   high     levels every 3 in Y, U and V; the same noise model, chroma pruning within 1 eps.
-#            5.63 x PNG, 45.0 dB, SSIMULACRA2 89.2, FLIP 0.023; 242k segments.
+#            5.48 x PNG, 45.0 dB, SSIMULACRA2 89.2, FLIP 0.023; 242k segments.
 # What the measurements said: the noise-aware ribbon halves the segments for 0.3-1 point of
 # SSIMULACRA2; pruning pays in chroma (astronaut: -32 % segments for -2.4 points) but not in
 # luma (-9 % segments for -7 points: the small Y loops are texture, which SSIMULACRA2 sees),
