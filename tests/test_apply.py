@@ -493,6 +493,9 @@ def test_cli_equalize(isoph, tmp_path, capsys):
     out = tmp_path / "eq.isoph"
     assert cli.main(["equalize", str(isoph), "-o", str(out)]) == 0
     assert "empty bins" in capsys.readouterr().out
+    assert isophote.load(out).channel("Y").cap_ramp == DOME  # the domes reach the file
+    assert cli.main(["info", str(out)]) == 0
+    assert "tone curve of" in (text := capsys.readouterr().out) and "dome caps" in text
     assert cli.main(["equalise", str(isoph), "-o", str(out), "--fast", "--quiet"]) == 0
     assert np.all(np.diff(isophote.load(out).channel("Y").levels) > 0)
 

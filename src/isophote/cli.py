@@ -740,8 +740,10 @@ def cmd_info(args) -> int:
     print(f"{args.input}: {info['width']}x{info['height']} {info['colour']} (from {info['source_depth']}-bit), "
           f"{info['bytes']:,} bytes, {info['compression']}, format version {info['format_version']}")
     for c in info["channels"]:
+        extra = (f", tone curve of {c['tone_knots']} knots" if c.get("tone_knots") else "") + (
+            ", dome caps" if c.get("cap_ramp") == "dome" else "")
         print(f"  {c['name']}  {len(c['levels']):4d} levels {c['contours']:8d} contours "
-              f"{c['segments']:9d} segments {c.get('caps', 0):7d} caps")
+              f"{c['segments']:9d} segments {c.get('caps', 0):7d} caps{extra}")
     if segments:
         print(f"  {segments:,} segments, {info['bytes'] / segments:.2f} bytes per segment")
     return 0
