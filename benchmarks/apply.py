@@ -22,9 +22,9 @@ Equalisation (§5, Fig. 10)
     The 8-bit luminance of each photograph (BT.601, as OpenCV's YCrCb) equalised by OpenCV
     (``equalizeHist``) and scikit-image (``exposure.equalize_hist``, rounded to 8 bits),
     against the vector image's Y channel after level reassignment (exact areas only, and
-    with domes and the tone curve measured on the 1x and 2x renders), rendered at 1x (and,
-    with the tone curve, at 2x) and rounded to 8 bits. Empty bins of 256, KS distance to the
-    uniform distribution, entropy in bits (8 is a rectangular histogram). "KS floor": every
+    with domes and the tone curve measured on the 1x and 2x renders, 1x weighing twice),
+    rendered at 1x (and, with the tone curve, at 2x) and rounded to 8 bits. Empty bins of
+    256, KS distance to the uniform distribution, entropy in bits (8 is a rectangular histogram). "KS floor": every
     single value of the 1x render the tone curve starts from (after reassignment, with
     domes) stays one value under any monotone map, costing KS half of its share beyond
     1/256, or all of it less 1/256 at an end of the scale (with no empty bin below it): the
@@ -403,7 +403,8 @@ def main(argv=None):
                              "Luminance histograms, 256 bins: empty bins, KS distance to the uniform, entropy "
                              "(bits). isophote: the Y channel rendered at 1x after level reassignment (areas: "
                              "exact Green's-theorem areas only, caps as encoded; tone: the areas, caps made "
-                             "domes, then one tone curve measured on the 1x and 2x renders pooled; tone 2x: the "
+                             "domes, then one tone curve measured on the 1x and 2x renders pooled, 1x weighing "
+                             "twice; tone 2x: the "
                              "same image rendered at 2x). KS floor: what no monotone map of the 1x render the "
                              "curve starts from (domes) can beat without emptying bins, as every single value "
                              "stays one value, costing half its share beyond one bin's, or all of it less one "

@@ -46,14 +46,17 @@ Tone curve (``refine_render=True``, the default)
     tone curve (``tone_curve`` with no levels: one curve over the whole scale). Contours do
     not move; the rendered value at a level becomes the curve's value there.
 
-    The distribution is measured on the point samples of two renders pooled with equal
-    weight, at 1x and at 2x (``MEASURE_SCALES``): enlargements evaluate the fill on a finer
-    distance grid (three nodes per source pixel, render/__init__.py ``node_resolution``)
-    that every render above 1x shares, while the 1x samples sit exactly on the source pixel
-    centres, and the two distributions differ a little. Measured on the corpus with domes
+    The distribution is measured on the point samples of two renders pooled, at 1x and at 2x
+    (``MEASURE_SCALES``), the native size weighing twice as much (``MEASURE_WEIGHTS``):
+    enlargements evaluate the fill on a finer distance grid (two or three nodes per source
+    pixel, render/__init__.py ``node_resolution``), while the 1x samples sit exactly on the
+    source pixel centres, and the two distributions differ a little. Measured on the corpus with domes
     (benchmarks/apply.py; KS / entropy at 1x, and at 2x, means): per-band curves (every
     level a fixed knot) measured at 2x 0.0047 / 7.986 and 0.0008 / 7.999; per-band, pooled
-    0.0041 / 7.995 and 0.0018 / 7.997; one curve, pooled 0.0026 / 7.996 and 0.0026 / 7.996.
+    0.0041 / 7.995 and 0.0018 / 7.997; one curve, pooled 0.0026 / 7.996 and 0.0026 / 7.996;
+    one curve, 1x weighing 2 (the default) 0.0018 / 7.998 and 0.0032 / 7.996 (worst photo,
+    camera: 0.0034 and 0.0066); one curve from 1x alone 0.0003 / 8.000 and 0.0049 / 7.990
+    (camera at 2x 0.0100).
     Large images are measured at reduced scales (about MEASURE_PIXELS samples at 1x).
 
     Domes: a cap's plateau is flat (model.py, CAP_RAMP), so a large cap (a clear sky, a
@@ -230,6 +233,7 @@ def reassign_levels(channel: Channel, width: int, height: int) -> Channel:
 
 
 MEASURE_SCALES = (1.0, 2.0)  # the renders measured, pooled (see the module docstring)
+MEASURE_WEIGHTS = (2.0, 1.0)  # their weights in the pool: the native size first
 MEASURE_PIXELS = 1_000_000  # larger images are measured as if they had this many pixels
 ATOM = 1.0 / 256.0  # a single value holding this share of the image (a bin) is an atom
 STRETCH_MAX = 32.0  # the most the values beside an atom are spread thinner than uniform
@@ -247,12 +251,14 @@ def _render_channel(channel: Channel, width: int, height: int, scale: float = 1.
 def measure_values(channel: Channel, width: int, height: int) -> np.ndarray:
     """(N,) float64: the channel's rendered values as the tone curve sees them (no tone
     applied): the point samples of its renders at MEASURE_SCALES (smaller for images of
-    more than MEASURE_PIXELS pixels), each render repeated so that all weigh the same."""
+    more than MEASURE_PIXELS pixels), each render repeated so that it weighs its
+    MEASURE_WEIGHTS share."""
     reduce = min(1.0, float(np.sqrt(MEASURE_PIXELS / (float(width) * float(height)))))
     plain = replace(channel, tone=None)
     parts = [_render_channel(plain, width, height, s * reduce).ravel() for s in MEASURE_SCALES]
-    most = max(p.size for p in parts)
-    return np.concatenate([np.repeat(p, max(1, round(most / p.size))) for p in parts])
+    most, least = max(p.size for p in parts), min(MEASURE_WEIGHTS)
+    return np.concatenate([np.repeat(p, max(1, round(w * most / (least * p.size))))
+                           for p, w in zip(parts, MEASURE_WEIGHTS)])
 
 
 def _simplify(x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
