@@ -431,40 +431,69 @@ def _candidate(parent, k, rank):
 
 
 @njit(cache=True, nogil=True)
-def _enc_handles3(st, out, probs, b, db, dx, dy, hx, hy, gx, gy):
-    """Layout 3's handles: the residuals h, r in the chord's frame, (h.a, h.c) and (r.a, r.c);
-    r.a after -h.a / 2 (the two handles tend to grow and shrink together)."""
-    sg, p, q = _frame(dx, dy)
-    ha, hc = _to_frame(sg, p, q, hx, hy)
-    ga, gc = _to_frame(sg, p, q, gx, gy)
-    ga += (ha + 1) >> 1
-    _enc_int(st, out, probs, M_HX + b * NB + db, ha)
-    if b:
-        _enc_int(st, out, probs, M_HY + BORDER_CTX, hc)
-        _enc_int(st, out, probs, M_GX + BORDER_CTX, ga)
-        _enc_int(st, out, probs, M_GY + BORDER_CTX, gc)
-    else:
-        _enc_int(st, out, probs, M_HY + _bucket(ha) * NB + db, hc)
-        _enc_int(st, out, probs, M_GX + _bucket(ha) * NB + db, ga)
-        _enc_int(st, out, probs, M_GY + _bucket(hc) * NB + db, gc)
+def _g_contexts(layout, h1, h2):
+    """Buckets selecting the models of the second handle's two terms (non-border segments):
+    layout 2 both by bucket(max(|h1|, |h2|)), layout 3 by bucket(h1) and bucket(h2)."""
+    if layout >= 3:
+        return _bucket(h1), _bucket(h2)
+    hb = _bucket(max(abs(h1), abs(h2)))
+    return hb, hb
 
 
 @njit(cache=True, nogil=True)
-def _dec_handles3(ds, inp, probs, b, db, dx, dy):
-    """The inverse of _enc_handles3: (hx, hy, gx, gy)."""
-    ha = _dec_int(ds, inp, probs, M_HX + b * NB + db)
+def _enc_handle_terms(st, out, probs, layout, b, db, h1, h2, g1, g2):
+    """The four handle terms of one segment: h1 by border flag and bucket(max|d|); then h2
+    (by bucket(h1)), g1 and g2 (_g_contexts), or all three on the border models."""
+    _enc_int(st, out, probs, M_HX + b * NB + db, h1)
     if b:
-        hc = _dec_int(ds, inp, probs, M_HY + BORDER_CTX)
-        ga = _dec_int(ds, inp, probs, M_GX + BORDER_CTX)
-        gc = _dec_int(ds, inp, probs, M_GY + BORDER_CTX)
+        _enc_int(st, out, probs, M_HY + BORDER_CTX, h2)
+        _enc_int(st, out, probs, M_GX + BORDER_CTX, g1)
+        _enc_int(st, out, probs, M_GY + BORDER_CTX, g2)
     else:
-        hc = _dec_int(ds, inp, probs, M_HY + _bucket(ha) * NB + db)
-        ga = _dec_int(ds, inp, probs, M_GX + _bucket(ha) * NB + db)
-        gc = _dec_int(ds, inp, probs, M_GY + _bucket(hc) * NB + db)
-    ga -= (ha + 1) >> 1
-    sg, p, q = _frame(dx, dy)
-    hx, hy = _from_frame(sg, p, q, ha, hc)
-    gx, gy = _from_frame(sg, p, q, ga, gc)
+        _enc_int(st, out, probs, M_HY + _bucket(h1) * NB + db, h2)
+        c1, c2 = _g_contexts(layout, h1, h2)
+        _enc_int(st, out, probs, M_GX + c1 * NB + db, g1)
+        _enc_int(st, out, probs, M_GY + c2 * NB + db, g2)
+
+
+@njit(cache=True, nogil=True)
+def _dec_handle_terms(ds, inp, probs, layout, b, db):
+    """The inverse of _enc_handle_terms: (h1, h2, g1, g2)."""
+    h1 = _dec_int(ds, inp, probs, M_HX + b * NB + db)
+    if b:
+        h2 = _dec_int(ds, inp, probs, M_HY + BORDER_CTX)
+        g1 = _dec_int(ds, inp, probs, M_GX + BORDER_CTX)
+        g2 = _dec_int(ds, inp, probs, M_GY + BORDER_CTX)
+    else:
+        h2 = _dec_int(ds, inp, probs, M_HY + _bucket(h1) * NB + db)
+        c1, c2 = _g_contexts(layout, h1, h2)
+        g1 = _dec_int(ds, inp, probs, M_GX + c1 * NB + db)
+        g2 = _dec_int(ds, inp, probs, M_GY + c2 * NB + db)
+    return h1, h2, g1, g2
+
+
+@njit(cache=True, nogil=True)
+def _enc_handles(st, out, probs, layout, b, db, dx, dy, hx, hy, gx, gy):
+    """One segment's handle residuals h = (hx, hy), r = (gx, gy). Layout 2 codes them as
+    they are; layout 3 in the chord's frame, (h.a, h.c) and (r.a, r.c), with r.a after
+    -h.a / 2 (the two handles tend to grow and shrink together)."""
+    if layout >= 3:
+        sg, p, q = _frame(dx, dy)
+        hx, hy = _to_frame(sg, p, q, hx, hy)
+        gx, gy = _to_frame(sg, p, q, gx, gy)
+        gx += (hx + 1) >> 1
+    _enc_handle_terms(st, out, probs, layout, b, db, hx, hy, gx, gy)
+
+
+@njit(cache=True, nogil=True)
+def _dec_handles(ds, inp, probs, layout, b, db, dx, dy):
+    """The inverse of _enc_handles: (hx, hy, gx, gy)."""
+    hx, hy, gx, gy = _dec_handle_terms(ds, inp, probs, layout, b, db)
+    if layout >= 3:
+        gx -= (hx + 1) >> 1
+        sg, p, q = _frame(dx, dy)
+        hx, hy = _from_frame(sg, p, q, hx, hy)
+        gx, gy = _from_frame(sg, p, q, gx, gy)
     return hx, hy, gx, gy
 
 
@@ -580,19 +609,7 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
             hy = pts[t + 3 * i + 1, 1] - ay - _rnd3(dy)
             gx = pts[t + 3 * i + 2, 0] - nx + _rnd3(dx)
             gy = pts[t + 3 * i + 2, 1] - ny + _rnd3(dy)
-            if layout >= 3:
-                _enc_handles3(st, out, probs, b, db, dx, dy, hx, hy, gx, gy)
-                continue
-            _enc_int(st, out, probs, M_HX + b * NB + db, hx)
-            if b:
-                _enc_int(st, out, probs, M_HY + BORDER_CTX, hy)
-                _enc_int(st, out, probs, M_GX + BORDER_CTX, gx)
-                _enc_int(st, out, probs, M_GY + BORDER_CTX, gy)
-            else:
-                _enc_int(st, out, probs, M_HY + _bucket(hx) * NB + db, hy)
-                hb = _bucket(max(abs(hx), abs(hy)))
-                _enc_int(st, out, probs, M_GX + hb * NB + db, gx)
-                _enc_int(st, out, probs, M_GY + hb * NB + db, gy)
+            _enc_handles(st, out, probs, layout, b, db, dx, dy, hx, hy, gx, gy)
         t += 3 * n
         s0 += n
 
@@ -760,19 +777,7 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
             pdy = dy
             db = _bucket(max(abs(dx), abs(dy)))
             dbk = db
-            if layout >= 3:
-                hx, hy, gx, gy = _dec_handles3(ds, inp, probs, b, db, dx, dy)
-            elif b:
-                hx = _dec_int(ds, inp, probs, M_HX + b * NB + db)
-                hy = _dec_int(ds, inp, probs, M_HY + BORDER_CTX)
-                gx = _dec_int(ds, inp, probs, M_GX + BORDER_CTX)
-                gy = _dec_int(ds, inp, probs, M_GY + BORDER_CTX)
-            else:
-                hx = _dec_int(ds, inp, probs, M_HX + b * NB + db)
-                hy = _dec_int(ds, inp, probs, M_HY + _bucket(hx) * NB + db)
-                hb = _bucket(max(abs(hx), abs(hy)))
-                gx = _dec_int(ds, inp, probs, M_GX + hb * NB + db)
-                gy = _dec_int(ds, inp, probs, M_GY + hb * NB + db)
+            hx, hy, gx, gy = _dec_handles(ds, inp, probs, layout, b, db, dx, dy)
             cax = ax + _rnd3(dx) + hx
             cay = ay + _rnd3(dy) + hy
             cbx = nx - _rnd3(dx) + gx

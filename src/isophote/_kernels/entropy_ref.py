@@ -233,58 +233,50 @@ def from_frame(frame, a: int, c: int):
     return x, y
 
 
+def g_contexts(version, h1, h2):
+    """Buckets selecting the models of the second handle's two terms (non-border segments):
+    version 2 both by bucket(max(|h1|, |h2|)), version 3 by bucket(h1) and bucket(h2)."""
+    if version >= 3:
+        return bucket(h1), bucket(h2)
+    hb = bucket(max(abs(h1), abs(h2)))
+    return hb, hb
+
+
 def put_handles(enc, mo, version, b, db, d, h, r):
-    """The residuals h = Ca - A - rnd3(d) and r = Cb - N + rnd3(d) of one segment."""
+    """The residuals h = Ca - A - rnd3(d) and r = Cb - N + rnd3(d) of one segment: as they
+    are (version 2), or in the chord's frame with r.a after -h.a / 2 (version 3)."""
+    (h1, h2), (g1, g2) = h, r
     if version >= 3:
         frame = chord_frame(*d)
-        ha, hc = to_frame(frame, *h)
-        ra, rc = to_frame(frame, *r)
-        ra += (ha + 1) >> 1
-        mo.int("hx", b, db).put(enc, ha)
-        if b:
-            for name, v in (("hy", hc), ("gx", ra), ("gy", rc)):
-                mo.int(name, "border").put(enc, v)
-        else:
-            mo.int("hy", bucket(ha), db).put(enc, hc)
-            mo.int("gx", bucket(ha), db).put(enc, ra)
-            mo.int("gy", bucket(hc), db).put(enc, rc)
-        return
-    mo.int("hx", b, db).put(enc, h[0])
+        h1, h2 = to_frame(frame, *h)
+        g1, g2 = to_frame(frame, *r)
+        g1 += (h1 + 1) >> 1
+    mo.int("hx", b, db).put(enc, h1)
     if b:
-        mo.int("hy", "border").put(enc, h[1])
-        mo.int("gx", "border").put(enc, r[0])
-        mo.int("gy", "border").put(enc, r[1])
+        for name, v in (("hy", h2), ("gx", g1), ("gy", g2)):
+            mo.int(name, "border").put(enc, v)
     else:
-        mo.int("hy", bucket(h[0]), db).put(enc, h[1])
-        hb = bucket(max(abs(h[0]), abs(h[1])))
-        mo.int("gx", hb, db).put(enc, r[0])
-        mo.int("gy", hb, db).put(enc, r[1])
+        mo.int("hy", bucket(h1), db).put(enc, h2)
+        c1, c2 = g_contexts(version, h1, h2)
+        mo.int("gx", c1, db).put(enc, g1)
+        mo.int("gy", c2, db).put(enc, g2)
 
 
 def get_handles(dec, mo, version, b, db, d):
     """The inverse of put_handles: (h, r)."""
-    if version >= 3:
-        ha = mo.int("hx", b, db).get(dec)
-        if b:
-            hc, ra, rc = (mo.int(name, "border").get(dec) for name in ("hy", "gx", "gy"))
-        else:
-            hc = mo.int("hy", bucket(ha), db).get(dec)
-            ra = mo.int("gx", bucket(ha), db).get(dec)
-            rc = mo.int("gy", bucket(hc), db).get(dec)
-        ra -= (ha + 1) >> 1
-        frame = chord_frame(*d)
-        return from_frame(frame, ha, hc), from_frame(frame, ra, rc)
-    hx = mo.int("hx", b, db).get(dec)
+    h1 = mo.int("hx", b, db).get(dec)
     if b:
-        hy = mo.int("hy", "border").get(dec)
-        gx = mo.int("gx", "border").get(dec)
-        gy = mo.int("gy", "border").get(dec)
+        h2, g1, g2 = (mo.int(name, "border").get(dec) for name in ("hy", "gx", "gy"))
     else:
-        hy = mo.int("hy", bucket(hx), db).get(dec)
-        hb = bucket(max(abs(hx), abs(hy)))
-        gx = mo.int("gx", hb, db).get(dec)
-        gy = mo.int("gy", hb, db).get(dec)
-    return (hx, hy), (gx, gy)
+        h2 = mo.int("hy", bucket(h1), db).get(dec)
+        c1, c2 = g_contexts(version, h1, h2)
+        g1 = mo.int("gx", c1, db).get(dec)
+        g2 = mo.int("gy", c2, db).get(dec)
+    if version >= 3:
+        g1 -= (h1 + 1) >> 1
+        frame = chord_frame(*d)
+        return from_frame(frame, h1, h2), from_frame(frame, g1, g2)
+    return (h1, h2), (g1, g2)
 
 
 def level_pred(levels, lev: int, shift: int) -> int:
