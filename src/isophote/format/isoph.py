@@ -863,10 +863,15 @@ def _check_levels(levels: np.ndarray, label: str) -> None:
         raise FormatError(f"channel {label}: levels are not strictly increasing")
 
 
-def _check_cap_ramp(cap_ramp: float, label: str) -> None:
-    """A cap ramp: positive, finite or +infinity (DOME)."""
-    if not cap_ramp > 0.0:  # NaN fails too
-        raise FormatError(f"channel {label}: cap ramp {cap_ramp!r} is not positive")
+def _check_cap_ramp(cap_ramp, label: str) -> float:
+    """A cap ramp as a float: a number, positive, finite or +infinity (DOME)."""
+    try:
+        value = float(cap_ramp)
+    except (TypeError, ValueError):
+        raise FormatError(f"channel {label}: cap_ramp must be a number, not {cap_ramp!r}") from None
+    if not value > 0.0:  # NaN fails too
+        raise FormatError(f"channel {label}: cap ramp {value!r} is not positive")
+    return value
 
 
 def _check_tone(tone: np.ndarray, label: str) -> None:
@@ -1011,12 +1016,7 @@ def _checked_channel(ch: Channel) -> _Checked:
     if tone is not None:
         tone = np.asarray(tone, dtype=np.float64)
         _check_tone(tone, label)
-    cap_ramp = getattr(ch, "cap_ramp", CAP_RAMP)
-    try:
-        cap_ramp = float(cap_ramp)
-    except (TypeError, ValueError):
-        raise FormatError(f"channel {label}: cap_ramp must be a number, not {cap_ramp!r}") from None
-    _check_cap_ramp(cap_ramp, label)
+    cap_ramp = _check_cap_ramp(getattr(ch, "cap_ramp", CAP_RAMP), label)
 
     level = _int_array(ch.contour_level, label, "contour_level")
     c = level.shape[0]

@@ -149,6 +149,7 @@ from .isoph import (
     MAX_WIDTH,
     QUANT,
     SOURCE_DEPTHS,
+    _check_cap_ramp,
     _check_levels,
     _check_semantics,
     check_image_kind,
@@ -330,8 +331,7 @@ def _check_image(vi) -> None:
             raise FormatError(f"channel {label}: base band {ch.base_band} is outside [0, {levels.shape[0]}]")
         if ch.tone is not None:
             _check_tone(np.asarray(ch.tone), label)
-        if not float(ch.cap_ramp) > 0.0:
-            raise FormatError(f"channel {label}: cap_ramp must be positive (or DOME), not {ch.cap_ramp!r}")
+        _check_cap_ramp(ch.cap_ramp, label)
 
 
 def _check_tone(tone: np.ndarray, label: str) -> None:
@@ -1214,9 +1214,9 @@ class _Reader:
         if el.get(_I + "cap-ramp") is not None:
             text = el.get(_I + "cap-ramp").strip()
             ramp = [DOME] if text == "dome" else _attr_floats(text, f"channel {name} cap ramp")
-            if len(ramp) != 1 or not ramp[0] > 0.0:
-                raise FormatError(f"channel {name}: iso:cap-ramp must be one positive number or \"dome\"")
-            cap_ramp = float(ramp[0])
+            if len(ramp) != 1:
+                raise FormatError(f"channel {name}: iso:cap-ramp must be one number or \"dome\"")
+            cap_ramp = _check_cap_ramp(ramp[0], name)
         ch = _ChannelData(name, levels, bb[0], caps, m, tone, cap_ramp)
         self.channels.append(ch)
         return ch
