@@ -224,6 +224,9 @@ def test_bad_output_format_and_depth(files, tmp_path, capsys):
     ["--local-noise", "-1"],
     ["--noise-floor", "1,2,3,4"],
     ["--prune-area-y", "-3"],
+    ["--level-range", "0,255"],
+    ["--level-range", "7.5"],
+    ["--level-range", "128,129"],
 ])
 def test_bad_encode_options(files, tmp_path, capsys, flags):
     png, _ = files

@@ -31,6 +31,39 @@ def test_paper_is_section_1_of_the_paper():
     assert (opts.min_tolerance, opts.max_tolerance, opts.snap) == (0.05, 0.5, 20.0)
 
 
+def test_level_range_paper_and_full():
+    """The paper's levels stop at 7.5 and 247.5; the full range reaches 1.5 and 253.5 in steps
+    of 3 (high) and adds nothing to steps of 10, whose next levels would leave the scale."""
+    high = EncodeOptions(preset="high").resolved()
+    assert high.level_range == (0.5, 254.5)
+    y = channel_levels("Y", high)
+    assert (y[0], y[-1], len(y)) == (1.5, 253.5, 85)
+    assert np.allclose(np.diff(y), 3.0) and 127.5 in y
+    paper_range = EncodeOptions(preset="high", level_range=(7.5, 247.5)).resolved()
+    assert (channel_levels("Y", paper_range)[0], channel_levels("Y", paper_range)[-1]) == (7.5, 247.5)
+    full10 = EncodeOptions(preset="paper", level_range=(0.5, 254.5)).resolved()
+    assert np.array_equal(channel_levels("Y", full10), channel_levels("Y", EncodeOptions().resolved()))
+    assert len(channel_levels("U", full10)) == 51  # 2.5 and 252.5 join the paper's 49
+
+
+def test_full_range_traces_dark_shading_the_paper_range_leaves_flat():
+    """A ramp from 0 to 12 grey levels: the paper's range has its one level (7.5) there and
+    renders the part below it as a cap; the full range adds 1.5 and 4.5 and follows the ramp."""
+    h, w = 24, 96
+    ramp = np.tile(np.linspace(0.0, 12.0, w), (h, 1))
+    img = np.rint(ramp).astype(np.uint8)
+    out = {}
+    for rng in ((7.5, 247.5), (0.5, 254.5)):
+        vi = isophote.encode(img, y_step=3.0, level_range=rng)
+        y = vi.channels[0]
+        present = np.unique(y.levels[y.contour_level])
+        out[rng] = (present, np.abs(vi.render().astype(float) - img).mean())
+    assert np.array_equal(out[(7.5, 247.5)][0], [7.5, 10.5])
+    assert np.array_equal(out[(0.5, 254.5)][0], [1.5, 4.5, 7.5, 10.5])
+    assert out[(0.5, 254.5)][1] < 0.5 * out[(7.5, 247.5)][1]
+    assert out[(0.5, 254.5)][1] < 0.5
+
+
 def test_explicit_fields_override_the_preset():
     opts = EncodeOptions(preset="high", y_step=7.0, local_noise=0.0, max_tolerance=0.25).resolved()
     assert (opts.y_step, opts.local_noise, opts.max_tolerance) == (7.0, 0.0, 0.25)
@@ -68,6 +101,11 @@ def test_noise_floor_accepts_a_number_or_three():
     dict(prune_area_uv=2e6),
     dict(prune_contrast=-1.0),
     dict(preset="paper", min_tolerance=0.6),  # above paper's max_tolerance 0.5
+    dict(level_range=(0.0, 255.0)),  # a level at 0 or 255 would equal a value
+    dict(level_range=(200.0, 100.0)),
+    dict(level_range=(7.5,)),
+    dict(level_range=5.0),
+    dict(level_range=(128.0, 129.0)),  # no 127.5 + 10k inside
 ])
 def test_bad_values_are_refused(bad):
     with pytest.raises(OptionError):

@@ -149,6 +149,9 @@ ENCODE_FLAGS = {
     "y_step": dict(type=float, metavar="N", help="Y level spacing in grey levels (default: from the preset)"),
     "uv_step": dict(type=float, metavar="N", help="U and V level spacing (default: from the preset)"),
     "alpha_step": dict(type=float, metavar="N", help="alpha level spacing (default: from the preset)"),
+    "level_range": dict(type=_float_list, metavar="LOW,HIGH",
+                        help="the range the stepped levels fill: the paper's 7.5,247.5, or up to the "
+                             "whole scale 0.5,254.5 (default: from the preset)"),
     "levels_y": dict(type=_float_list, metavar="A,B,...", help="explicit Y levels on 0..255 (override --y-step)"),
     "levels_u": dict(type=_float_list, metavar="A,B,...", help="explicit U levels"),
     "levels_v": dict(type=_float_list, metavar="A,B,...", help="explicit V levels"),
@@ -182,7 +185,7 @@ ENCODE_FLAGS = {
                           help="weight of the cubic (Catmull-Rom) term under the Carrato midpoints: 1 = "
                                "cubic, 0 = the paper's linear base"),
 }
-ENCODE_ADVANCED = ("local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
+ENCODE_ADVANCED = ("level_range", "local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
                    "min_tolerance",
                    "max_tolerance", "carrato_p", "carrato_scale", "carrato_cubic")
 

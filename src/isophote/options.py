@@ -6,6 +6,7 @@ Every CLI flag and API keyword comes from these dataclasses; values are in user 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, replace
 
 from .errors import OptionError
@@ -19,13 +20,16 @@ from .errors import OptionError
 #            (encoder/noise.py; capped at 0.4 level spacings), a ribbon of up to 1 px, and the
 #            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py).
 #            1.43 x PNG, 38.3 dB, SSIMULACRA2 70.8 ("high quality"), FLIP 0.048; 51k segments.
-#   high     levels every 3 in Y, U and V; the same noise model, chroma pruning within 1 eps.
-#            5.48 x PNG, 45.0 dB, SSIMULACRA2 89.2, FLIP 0.023; 242k segments.
+#   high     levels every 3 in Y, U and V over the whole scale (1.5 .. 253.5: dark and bright
+#            texture is traced too, encoder/levels.py); the same noise model, chroma pruning
+#            within 0.5 eps. 5.62 x PNG, 45.6 dB, SSIMULACRA2 90.3.
+#            (The paper's range and pruning within 1 eps: 5.48 x PNG, 45.0 dB, 89.2.)
 # What the measurements said: the noise-aware ribbon halves the segments for 0.3-1 point of
 # SSIMULACRA2; pruning pays in chroma (astronaut: -32 % segments for -2.4 points) but not in
 # luma (-9 % segments for -7 points: the small Y loops are texture, which SSIMULACRA2 sees),
-# so no preset prunes Y. SSIMULACRA2 tops out near 89 on astronaut and rocket even with
-# levels every 2 (7-10 x PNG): past that, the render, not the contours, limits "high".
+# so no preset prunes Y. SSIMULACRA2 stayed near 89 on astronaut even with levels every 2
+# because its black background lies below the paper's lowest level (7.5): the full level range
+# lifts it to 90.5. Rocket stays near 85 whatever the levels and noise.
 #
 # The default is "paper". "compact" halves the bytes, but at 2.4 dB and 2.6 points of
 # SSIMULACRA2 less (FLIP 0.048 against 0.038): in rate-distortion terms neither
@@ -34,12 +38,12 @@ from .errors import OptionError
 # paper's figures are stated at. Ask for "compact" to edit (a third of the segments) or to
 # store; "high" to master.
 PRESETS = {
-    "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, local_noise=0.0, prune_area_y=0.0,
-                  prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5),
-    "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, local_noise=3.0, prune_area_y=0.0,
-                    prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0),
-    "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, local_noise=3.0, prune_area_y=0.0,
-                 prune_area_uv=16.0, prune_contrast=1.0, max_tolerance=1.0),
+    "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=(7.5, 247.5), local_noise=0.0,
+                  prune_area_y=0.0, prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5),
+    "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=(7.5, 247.5), local_noise=3.0,
+                    prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0),
+    "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=(0.5, 254.5), local_noise=3.0,
+                 prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0),
 }
 DEFAULT_PRESET = "paper"  # why: see above
 AUTO_LOCAL_NOISE = 1.0  # the local_noise that noise="auto" asks for on a preset without one
@@ -51,7 +55,9 @@ class EncodeOptions:
 
     preset : name in PRESETS; explicit steps or levels override its values.
     y_step, uv_step, alpha_step : level spacing in grey levels; levels sit at 127.5 + k*step
-        inside [7.5, 247.5] (between representable 8-bit values, see encoder.levels).
+        inside level_range (between representable 8-bit values, see encoder.levels).
+    level_range : (low, high) grey levels, the range the stepped levels fill: the paper's
+        (7.5, 247.5), or up to the whole scale (0.5, 254.5). None = the preset's.
     levels_y, levels_u, levels_v : explicit level lists (override the steps).
     noise : the sample error epsilon in grey levels (§3.1). None = the preset's: the
         quantisation error of the input, 0.5 for 8-bit (0.5/257 on the 0..255 scale for
@@ -84,6 +90,7 @@ class EncodeOptions:
     y_step: float | None = None
     uv_step: float | None = None
     alpha_step: float | None = None
+    level_range: tuple | None = None
     levels_y: tuple | None = None
     levels_u: tuple | None = None
     levels_v: tuple | None = None
@@ -115,6 +122,13 @@ class EncodeOptions:
             if local is None:
                 local = base["local_noise"] or AUTO_LOCAL_NOISE
             out = replace(out, noise=None, local_noise=local)
+        try:
+            lo_hi = tuple(float(v) for v in out.level_range)
+        except (TypeError, ValueError):
+            raise OptionError(f"level-range takes two numbers LOW,HIGH, got {out.level_range!r}") from None
+        if len(lo_hi) != 2:
+            raise OptionError(f"level-range takes two numbers LOW,HIGH, got {len(lo_hi)}")
+        out = replace(out, level_range=lo_hi)
         if out.noise_floor is not None:
             floor = out.noise_floor
             floor = (floor,) if isinstance(floor, (int, float)) else tuple(floor)
@@ -127,6 +141,15 @@ class EncodeOptions:
             v = getattr(self, name)
             if v is not None and not (0.5 <= v <= 128):
                 raise OptionError(f"{name.replace('_', '-')} must be between 0.5 and 128, got {v}")
+        if self.level_range is not None:
+            lo, hi = self.level_range
+            if not (0.0 < lo <= hi < 255.0):
+                raise OptionError(f"level-range must satisfy 0 < LOW <= HIGH < 255, got {lo},{hi}")
+            for name in ("y_step", "uv_step", "alpha_step"):
+                step = getattr(self, name)
+                if step is not None and math.floor((hi - 127.5) / step + 1e-9) < math.ceil((lo - 127.5) / step - 1e-9):
+                    raise OptionError(f"level-range {lo},{hi} holds no level 127.5 + k x {step} "
+                                      f"(--{name.replace('_', '-')})")
         if self.noise is not None and (isinstance(self.noise, str) or not (0 <= self.noise <= 64)):
             raise OptionError(f"noise must be between 0 and 64 grey levels, got {self.noise}")
         if self.local_noise is not None and not (0 <= self.local_noise <= 16):

@@ -1,8 +1,13 @@
 """Level lists (§1, §3.3).
 
-Levels sit between representable values: 127.5 + k * step for every k with the level in
-[7.5, 247.5], so an 8-bit value never equals a level (the paper's 127 +- 10k, shifted by half a
-grey level). Y every 10 gives 25 levels and U, V every 5 give 49, as in §1.
+Levels sit between representable values: 127.5 + k * step for every k with the level in the
+range, so an 8-bit value never equals a level (the paper's 127 +- 10k, shifted by half a grey
+level). The paper's range is [7.5, 247.5]: Y every 10 gives 25 levels and U, V every 5 give
+49, as in §1. Below its lowest level a channel holds no contour, so dark (and bright) texture
+there is one cap; the full range [0.5, 254.5] (EncodeOptions.level_range) lets a fine step
+trace it too. Astronaut, high preset (levels every 3): its black background, 15 % of the
+photograph, lies below 7.5 in Y, and the full range lifts SSIMULACRA2 from 87.4 to 90.5 for
+1 % more bytes.
 The comparison rule used everywhere: a sample equal to a level counts as above it, i.e. the
 band of a value v is the number of levels <= v (``np.searchsorted(levels, v, "right")``).
 """
@@ -12,13 +17,14 @@ from __future__ import annotations
 import numpy as np
 
 CENTRE = 127.5
-LOW, HIGH = 7.5, 247.5
+LOW, HIGH = 7.5, 247.5  # the paper's range
+FULL = (0.5, 254.5)  # the whole 8-bit scale: every two neighbouring values can be separated
 
 
-def preset_levels(step: float) -> np.ndarray:
-    """127.5 + k*step inside [7.5, 247.5], increasing."""
-    k_lo = int(np.ceil((LOW - CENTRE) / step - 1e-9))
-    k_hi = int(np.floor((HIGH - CENTRE) / step + 1e-9))
+def preset_levels(step: float, low: float = LOW, high: float = HIGH) -> np.ndarray:
+    """127.5 + k*step inside [low, high], increasing (empty when none fits)."""
+    k_lo = int(np.ceil((low - CENTRE) / step - 1e-9))
+    k_hi = int(np.floor((high - CENTRE) / step + 1e-9))
     return CENTRE + step * np.arange(k_lo, k_hi + 1, dtype=np.float64)
 
 
@@ -33,4 +39,4 @@ def channel_levels(name: str, options) -> np.ndarray:
     if explicit is not None:
         return np.asarray(explicit, dtype=np.float64)
     step = {"Y": options.y_step, "U": options.uv_step, "V": options.uv_step, "A": options.alpha_step}[name]
-    return preset_levels(step)
+    return preset_levels(step, *options.level_range)
