@@ -108,6 +108,11 @@ def measure(ref, decoded, metrics) -> dict:
     return M.compare(ref, decoded, metrics=metrics)
 
 
+def _setting(v) -> str:
+    """A preset value as the CLI takes it: a number, or numbers separated by commas."""
+    return ",".join(f"{x:g}" for x in v) if isinstance(v, tuple) else f"{v:g}"
+
+
 def compression_rows(name, img, png_bytes, metrics, use_isophote, repeat, log, noise_floor=None) -> list:
     """All codec rows of one image, each measured."""
     rows = list(peers.raster_peers(img, repeat=repeat))
@@ -283,7 +288,7 @@ def _presets_section(L, corpus, rows, metrics, heads, digits):
              "rocket is encoded with its JPEG quantisation error as the noise floor, as "
              "`isophote encode rocket.jpg` does.\n")
     for p in ISOPHOTE_PRESETS:
-        L.append(f"- `{p}`: " + ", ".join(f"{k}={v:g}" for k, v in PRESETS[p].items()))
+        L.append(f"- `{p}`: " + ", ".join(f"{k}={_setting(v)}" for k, v in PRESETS[p].items()))
     L.append("")
     L.append("| preset | image | contours | segments | bytes | x PNG | "
              + " | ".join(heads[m] for m in metrics) + f" | vtracer {peer} x PNG | PSNR gain dB |")
