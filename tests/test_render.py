@@ -304,15 +304,31 @@ def test_fused_colour_kernel_matches_the_numpy_path(depth, alpha):
     assert got.min() == 0 and got.max() == (65535 if depth == 16 else 255)
 
 
-def test_sections_and_strips_join_seamlessly(wavy, monkeypatch):
+def test_strips_join_seamlessly(wavy, monkeypatch):
     import isophote.render as R
 
     whole = render_float(wavy, scale=3)
     monkeypatch.setattr(R, "STRIP_ROWS", 7)
-    # 144 x 96 output: sections of 14 rows (two strips), the last one of 12 (strips of 7 and 5)
-    monkeypatch.setattr(R, "SECTION_PIXELS", 144 * 16)
+    # 144 x 96 output: 13 strips of 7 rows and a last one of 5, each turned into colour by
+    # whichever task fills its last channel
     assert np.array_equal(render_float(wavy, scale=3), whole)
     assert np.array_equal(render(wavy, scale=3), R.quantise(whole, 8)[..., 0])
+
+
+def test_colour_strips_join_seamlessly(monkeypatch):
+    """RGBA: four channels per strip, the colour made by the task that fills the last one;
+    strips of 5 rows give the same bytes as one strip."""
+    import isophote.render as R
+
+    yy, xx = np.mgrid[0:24, 0:36].astype(float)
+    rgba = np.stack([100 + 60 * np.sin(xx / 5.0), 120 + 50 * np.cos(yy / 4.0),
+                     80 + 2 * xx + yy, 255 - 4 * yy], axis=2)
+    vi = isophote.encode(np.clip(rgba, 0, 255).astype(np.uint8))
+    monkeypatch.setattr(R, "STRIP_ROWS", 1000)
+    whole = render(vi, scale=2.5, depth=16)
+    assert whole.shape == (60, 90, 4)
+    monkeypatch.setattr(R, "STRIP_ROWS", 5)
+    assert np.array_equal(render(vi, scale=2.5, depth=16), whole)
 
 
 @pytest.mark.parametrize(

@@ -14,6 +14,7 @@ seamlessly.
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -107,15 +108,16 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
     return out[..., 0] if out.shape[2] == 1 else out
 
 
-SECTION_PIXELS = 1 << 24  # output pixels per section (its float32 planes: 64 MB a channel)
-
-
 def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
-    """The pipeline on two workers: the channels' distance fields, then, section by section
-    of output rows, every channel's strips into float32 planes, then each strip's colour into
-    the output (quantised to ``depth`` bits, or float64 where depth is None). A channel's
-    strips start as soon as its own field is ready, which keeps both workers busy while the
-    last field is built; sections bound the float planes held at once."""
+    """The pipeline on two workers: the channels' distance fields, then strip by strip of
+    output rows, each channel's fill of the strip into a float32 plane of its own; the task
+    that fills a strip's last channel turns its planes into the output's colour (quantised to
+    ``depth`` bits, or float64 where depth is None) and lets them go. Strips are queued in
+    order, every channel of one before the next, so only the strips in flight hold planes:
+    no output-sized float buffer is ever allocated (memory first touched is what a fresh
+    process pays most for: at 3840 x 3840, three such planes were 177 MB). A strip task
+    that waits for its channel's field waits on a running task: the queue is first in,
+    first out, and the field tasks come first."""
     opts.validate()
     vp = viewport(vi, opts)
     flat = opts.fill == "flat"
@@ -124,32 +126,30 @@ def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
     out = np.empty((vp.out_h, vp.out_w, n_out), dtype)
     names = [ch.name for ch in vi.channels]
     tones = {ch.name: ch.tone for ch in vi.channels}
-    sec = max(STRIP_ROWS, SECTION_PIXELS // max(vp.out_w, 1) // STRIP_ROWS * STRIP_ROWS)
+    lock = threading.Lock()
+    held = {}  # first row of a strip -> the planes of it filled so far
+
     with ThreadPoolExecutor(max_workers=2) as pool:
-        # the queue is first in, first out: every field task has started before any strip
-        # task runs, so a strip that waits for its field waits on a running task
         def field(ch):
             nf = _channel_field(vi, ch, vp, opts)
             return nf, StripEdges(nf, vp, STRIP_ROWS)
 
         fields = {ch.name: pool.submit(field, ch) for ch in vi.channels}
-        for s0 in range(0, vp.out_h, sec):
-            s1 = min(s0 + sec, vp.out_h)
-            planes = {name: np.empty((s1 - s0, vp.out_w), np.float32) for name in names}
 
-            def fill(name, r0, s0=s0, s1=s1, planes=planes):
-                r1 = min(r0 + STRIP_ROWS, s1)
-                nf, edges = fields[name].result()
-                planes[name][r0 - s0:r1 - s0] = fill_strip(nf, vp, edges, r0, r1, flat, tones[name])
+        def fill(name, r0):
+            r1 = min(r0 + STRIP_ROWS, vp.out_h)
+            nf, edges = fields[name].result()
+            plane = fill_strip(nf, vp, edges, r0, r1, flat, tones[name])
+            with lock:
+                planes = held.setdefault(r0, {})
+                planes[name] = plane
+                if len(planes) < len(names):
+                    return
+                del held[r0]
+            out[r0:r1] = _convert(vi, planes, depth)
 
-            def colour(r0, s0=s0, s1=s1, planes=planes):
-                r1 = min(r0 + STRIP_ROWS, s1)
-                out[r0:r1] = _convert(vi, {n: p[r0 - s0:r1 - s0] for n, p in planes.items()}, depth)
-
-            strips = range(s0, s1, STRIP_ROWS)
-            for f in [pool.submit(fill, name, r0) for name in names for r0 in strips]:
-                f.result()
-            list(pool.map(colour, strips))
+        for f in [pool.submit(fill, name, r0) for r0 in range(0, vp.out_h, STRIP_ROWS) for name in names]:
+            f.result()
     return out
 
 
