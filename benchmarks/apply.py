@@ -72,7 +72,7 @@ _ENCODED = {}
 def encoded(name, img):
     """The photograph's vector image (paper preset), encoded once per run."""
     if name not in _ENCODED:
-        _ENCODED[name] = isophote.encode(img)
+        _ENCODED[name] = isophote.encode(img, preset="paper")
     return _ENCODED[name]
 
 
@@ -92,7 +92,7 @@ def bench_scale(corpus, factors=(4, 8)):
             small = downscale(img, factor)
             ref = img[: small.shape[0] * factor, : small.shape[1] * factor]
             t = time.perf_counter()
-            vi = isophote.encode(small)
+            vi = isophote.encode(small, preset="paper")
             enc = time.perf_counter() - t
             t = time.perf_counter()
             up = vi.render(scale=factor)
@@ -181,7 +181,7 @@ def bench_warp(corpus):
         lo = downscale(img, 2)
         h, w = lo.shape[:2]
         hi = img[: 2 * h, : 2 * w].astype(np.float64)
-        vi = isophote.encode(lo)
+        vi = isophote.encode(lo, preset="paper")
         vi_high = isophote.encode(lo, preset="high")
         hi_render = np.rint(render_float(vi, scale=2))
         lo_render = np.rint(render_float(vi))

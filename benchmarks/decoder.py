@@ -55,7 +55,7 @@ def main(argv=None):
     timings = []
     for name, img in corpus.items():
         t = time.perf_counter()
-        vi = isophote.encode(img)
+        vi = isophote.encode(img, preset="paper")
         enc = time.perf_counter() - t
         for fill, dist, ss in CONFIGS:
             t = time.perf_counter()

@@ -51,7 +51,7 @@ UPSCALE_FACTOR = 2
 # knows about isophote. Until the encoder, renderer and .isoph writer exist, calling them
 # raises ImportError / AttributeError / NotImplementedError, and main() skips isophote
 # with a note; any other exception is a real failure and stops the run.
-ISOPHOTE_PRESETS = ("paper", "compact", "high")
+ISOPHOTE_PRESETS = ("paper", "compact", "balanced", "high")
 _NOT_READY = (ImportError, AttributeError, NotImplementedError)
 
 

@@ -43,7 +43,7 @@ def centres(h, w):
 
 def isolines_of(img, levels, eps=0.5):
     """The isolines of a float image, through the encoder's own mapping (default options)."""
-    o = EncodeOptions().resolved()
+    o = EncodeOptions(preset="paper").resolved()
     grid, grid_eps = map_pixels(np.asarray(img, np.float64), eps, o.carrato_p, o.carrato_scale,
                                   o.carrato_cubic)
     return find_isolines(grid, grid_eps, np.asarray(levels, np.float64), o.min_tolerance, o.max_tolerance)
@@ -199,7 +199,7 @@ def test_cone_isolines_are_circles(sign):
 
 def test_cone_chains_keep_orientation_and_radius():
     img = cone(1)
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     ch = vi.channels[0]
     assert ch.n_contours == np.count_nonzero((ch.levels > img.min()) & (ch.levels < img.max())) == 18
     assert ch.base_band == 1
@@ -259,7 +259,7 @@ def test_ramp_isolines_are_straight_at_known_x():
 
 
 def test_ramp_chains_border_flags_only_on_frame():
-    vi = isophote.encode(ramp())
+    vi = isophote.encode(ramp(), preset="paper")
     ch = vi.channels[0]
     assert ch.n_contours == 23
     for lev, chain, flags in ch.chains():
@@ -292,7 +292,7 @@ def test_saddle_isolines_never_cross_or_touch(centre_value, cx, cy):
     assert iso.n_loops > 20
     assert crossing_pairs(polyline_pieces(iso)) == []
     # the fitted chains (flattened) keep the property
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     ch = vi.channels[0]
     assert ch.n_contours == iso.n_loops
     bad = crossing_pairs(chain_pieces(ch))
@@ -341,7 +341,7 @@ def test_border_shapes_close_along_the_frame(corner):
         assert abs(rr.mean() - radius) < 0.05 and np.abs(rr - radius).max() < 0.1
         # closed: the isoline arc and the border stretch bound the disc's part
         assert signed_area(p) == pytest.approx(-np.pi * radius**2 / part, rel=0.02)
-    vi = isophote.encode(img, levels_y=tuple(levels))
+    vi = isophote.encode(img, levels_y=tuple(levels), preset="paper")
     ch = vi.channels[0]
     assert ch.n_contours == 4
     for lev, chain, flags in ch.chains():
@@ -371,7 +371,7 @@ def test_border_shapes_close_along_the_frame(corner):
     ids=["grey-100", "black", "white", "rgb", "rgba"],
 )
 def test_constant_image_has_no_contours_and_renders_exactly(img):
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     if img.ndim == 2:
         values = {"Y": float(img.flat[0])}
     else:
@@ -390,7 +390,7 @@ def test_constant_image_has_no_contours_and_renders_exactly(img):
 
 def test_constant_on_a_level_counts_as_above():
     img = np.full((8, 8), 127.5)  # exactly on the paper preset's middle Y level
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     ch = vi.channels[0]
     k = int(np.flatnonzero(ch.levels == 127.5)[0])
     assert ch.n_contours == 0 and ch.base_band == k + 1
@@ -408,18 +408,18 @@ def camera_crop():
 
 
 def test_more_noise_fewer_segments(camera_crop):
-    counts = [isophote.encode(camera_crop, noise=e).channels[0].n_segments for e in (0.5, 2.0, 8.0)]
+    counts = [isophote.encode(camera_crop, noise=e, preset="paper").channels[0].n_segments for e in (0.5, 2.0, 8.0)]
     assert counts[0] > counts[1] > counts[2], counts
     assert counts[2] < 0.7 * counts[0]
 
 
 def test_fitted_chains_stay_within_the_ribbon(camera_crop):
     """Every isoline point is within its tolerance of its fitted (and rounded) chain."""
-    opts = EncodeOptions().resolved()
+    opts = EncodeOptions(preset="paper").resolved()
     img = camera_crop.astype(np.float64)
     levels = channel_levels("Y", opts)
     iso = isolines_of(img, levels)
-    vi = isophote.encode(camera_crop)
+    vi = isophote.encode(camera_crop, preset="paper")
     ch = vi.channels[0]
     assert ch.n_contours == iso.n_loops > 50
     assert np.array_equal(ch.contour_level, iso.level)
@@ -470,7 +470,7 @@ def test_nested_rings_parents():
     assert tree.parent[order[0]] == -1
     for outer, inner in zip(order[:-1], order[1:]):
         assert tree.parent[inner] == outer
-    vi = isophote.encode(rings(), levels_y=tuple(levels))
+    vi = isophote.encode(rings(), levels_y=tuple(levels), preset="paper")
     assert np.array_equal(vi.channels[0].parent, tree.parent)
     assert np.array_equal(vi.channels[0].contour_level, iso.level)
 
@@ -486,7 +486,7 @@ def two_bumps(sign):
 def test_two_bumps_are_siblings_with_caps(sign):
     img = two_bumps(sign)
     levels = (100.5, 150.5) if sign > 0 else (104.5, 154.5)
-    vi = isophote.encode(img, levels_y=levels)
+    vi = isophote.encode(img, levels_y=levels, preset="paper")
     ch = vi.channels[0]
     inner = 1 if sign > 0 else 0  # the level around each bump alone
     outer = 1 - inner
@@ -523,8 +523,8 @@ def test_two_bumps_are_siblings_with_caps(sign):
 
 def test_encoding_is_deterministic():
     img = skimage.data.astronaut()[200:248, 180:228]
-    a = dumps(isophote.encode(img))
-    b = dumps(isophote.encode(img.copy()))
+    a = dumps(isophote.encode(img, preset="paper"))
+    b = dumps(isophote.encode(img.copy(), preset="paper"))
     assert a == b
     assert len(a) > 1000
 
@@ -578,15 +578,15 @@ def test_bad_options_raise_option_error(options):
 def test_input_depths_are_scaled():
     """uint16 is divided by 257 and bool is 0/255: the same picture, the same contours."""
     ramp8 = np.tile(np.arange(0, 256, 8, dtype=np.uint8), (6, 1))
-    a = isophote.encode(ramp8)
-    b = isophote.encode(ramp8.astype(np.uint16) * 257)
+    a = isophote.encode(ramp8, preset="paper")
+    b = isophote.encode(ramp8.astype(np.uint16) * 257, preset="paper")
     assert b.source_depth == 16 and a.source_depth == 8
     assert np.array_equal(a.channels[0].contour_level, b.channels[0].contour_level)
     assert np.abs(a.channels[0].points - b.channels[0].points).max() <= 0.5
     mask = np.zeros((8, 8), bool)
     mask[2:6, 2:6] = True
-    c = isophote.encode(mask)
-    d = isophote.encode(mask.astype(np.uint8) * 255)
+    c = isophote.encode(mask, preset="paper")
+    d = isophote.encode(mask.astype(np.uint8) * 255, preset="paper")
     assert c.channels[0].equals(d.channels[0])
 
 

@@ -18,7 +18,7 @@ def test_every_preset_resolves_with_every_field_filled(name):
 
 
 def test_the_presets_and_the_default():
-    assert {"paper", "high", "compact"} <= set(PRESETS)
+    assert {"paper", "high", "compact", "balanced"} <= set(PRESETS)
     assert DEFAULT_PRESET in PRESETS
     assert EncodeOptions().resolved().preset == DEFAULT_PRESET
 
@@ -42,7 +42,7 @@ def test_level_range_paper_and_full():
     paper_range = EncodeOptions(preset="high", level_range=(7.5, 247.5)).resolved()
     assert (channel_levels("Y", paper_range)[0], channel_levels("Y", paper_range)[-1]) == (7.5, 247.5)
     full10 = EncodeOptions(preset="paper", level_range=(0.5, 254.5)).resolved()
-    assert np.array_equal(channel_levels("Y", full10), channel_levels("Y", EncodeOptions().resolved()))
+    assert np.array_equal(channel_levels("Y", full10), channel_levels("Y", EncodeOptions(preset="paper").resolved()))
     assert len(channel_levels("U", full10)) == 51  # 2.5 and 252.5 join the paper's 49
 
 
@@ -123,11 +123,14 @@ def _photo_like(seed=3, h=80, w=112, noise=1.0):
 
 
 def test_presets_order_by_size_and_fidelity():
-    """compact spends fewer segments than paper; high is the most faithful."""
+    """compact spends fewer segments than paper; balanced fewer than paper and is more
+    faithful; high is the most faithful."""
     img = _photo_like()
-    out = {p: isophote.encode(img, preset=p) for p in ("paper", "high", "compact")}
+    out = {p: isophote.encode(img, preset=p) for p in ("paper", "high", "compact", "balanced")}
     segs = {p: sum(ch.n_segments for ch in vi.channels) for p, vi in out.items()}
     err = {p: float(np.sqrt(np.mean((vi.render().astype(float) - img) ** 2))) for p, vi in out.items()}
     assert segs["compact"] < 0.7 * segs["paper"]
     assert err["high"] < err["paper"]
     assert err["compact"] < 2.0 * err["paper"]
+    assert segs["balanced"] < segs["paper"] and err["balanced"] < err["paper"]
+    assert err["high"] < err["balanced"]

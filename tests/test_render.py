@@ -41,7 +41,7 @@ def ramp_image(kind):
 
 @pytest.fixture(scope="module")
 def ramps():
-    return {k: (ramp_image(k), isophote.encode(ramp_image(k))) for k in ("x", "y", "diagonal")}
+    return {k: (ramp_image(k), isophote.encode(ramp_image(k), preset="paper")) for k in ("x", "y", "diagonal")}
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +49,7 @@ def radial():
     """A smooth radial gradient (slope 4 per pixel) and its encoding."""
     yy, xx = centres(32, 32)
     img = 40.0 + 4.0 * np.hypot(xx - 15.7, yy - 16.2)
-    return img, isophote.encode(img)
+    return img, isophote.encode(img, preset="paper")
 
 
 # ---------------------------------------------------------------------------------------
@@ -74,7 +74,7 @@ def test_g1_fill_follows_a_curved_profile_better_than_straight_lines():
     4x and its slope changes less between neighbouring samples."""
     yy, xx = centres(12, 44)
     img = 20.3 + 0.1 * xx**2
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     x4 = (np.arange(44 * 4) + 0.5) / 4
     truth = 20.3 + 0.1 * x4**2
     errs, kinks = {}, {}
@@ -153,7 +153,7 @@ def disc_image(size=48, radius=10.0, cx=24.3, cy=23.6, ss=8):
 @pytest.mark.parametrize("scale", [1, 2, 4])
 def test_disc_keeps_radius_and_centre(scale):
     radius, cx, cy = 10.0, 24.3, 23.6
-    vi = isophote.encode(disc_image(radius=radius, cx=cx, cy=cy))
+    vi = isophote.encode(disc_image(radius=radius, cx=cx, cy=cy), preset="paper")
     out = render_float(vi, scale=scale)[..., 0]
     assert out.shape == (48 * scale, 48 * scale)
     inside = out >= 125.0
@@ -171,7 +171,7 @@ def test_disc_keeps_radius_and_centre(scale):
 
 @pytest.mark.parametrize("scale", [1, 2])
 def test_disc_inner_plateau_comes_back(scale):
-    vi = isophote.encode(disc_image())
+    vi = isophote.encode(disc_image(), preset="paper")
     out = render_float(vi, scale=scale)[..., 0]
     yy, xx = (np.mgrid[0 : 48 * scale, 0 : 48 * scale] + 0.5) / scale
     r = np.hypot(xx - 24.3, yy - 23.6)
@@ -183,7 +183,7 @@ def test_disc_inner_plateau_comes_back(scale):
 def test_dome_caps_rise_to_their_value_at_the_centre(scale):
     from isophote.model import DOME
 
-    vi = isophote.encode(disc_image())
+    vi = isophote.encode(disc_image(), preset="paper")
     ch = vi.channels[0]
     top = int(np.argmax(ch.cap_value))
     dome = replace(vi, channels=(replace(ch, cap_ramp=DOME),))
@@ -207,7 +207,7 @@ def test_dome_caps_rise_to_their_value_at_the_centre(scale):
 def test_cap_peaks_at_its_value(scale):
     yy, xx = centres(32, 32)
     img = 30.0 + 180.0 * np.exp(-((xx - 15.6) ** 2 + (yy - 16.3) ** 2) / (2 * 4.0**2))
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     ch = vi.channels[0]
     top = int(np.argmax(ch.cap_band))
     assert ch.cap_band[top] == np.searchsorted(ch.levels, img.max(), side="right")
@@ -229,7 +229,7 @@ def wavy():
     """A 32 x 48 (H x W) smooth image with many contours."""
     yy, xx = centres(32, 48)
     img = 40.0 + 3.0 * np.hypot(xx - 20.7, yy - 16.2) + 12.0 * np.sin(xx / 3.0) * np.cos(yy / 4.0)
-    return isophote.encode(np.clip(img, 0, 255))
+    return isophote.encode(np.clip(img, 0, 255), preset="paper")
 
 
 @pytest.mark.parametrize("crop", [(5, 7, 10, 9), (0, 20, 12, 12), (36, 0, 12, 32)],
@@ -272,7 +272,7 @@ def test_sizes_and_supersampling(wavy):
 def test_rgb_render_shapes_and_colour():
     yy, xx = centres(16, 24)
     rgb = np.stack([40 + 8 * xx, 200 - 9 * yy, np.full_like(xx, 90.0)], axis=-1)
-    vi = isophote.encode(np.clip(rgb, 0, 255))
+    vi = isophote.encode(np.clip(rgb, 0, 255), preset="paper")
     out = render_float(vi)
     assert out.shape == (16, 24, 3)
     assert np.abs(out - rgb)[2:-2, 2:-2].max() <= 3.0
@@ -323,7 +323,7 @@ def test_colour_strips_join_seamlessly(monkeypatch):
     yy, xx = np.mgrid[0:24, 0:36].astype(float)
     rgba = np.stack([100 + 60 * np.sin(xx / 5.0), 120 + 50 * np.cos(yy / 4.0),
                      80 + 2 * xx + yy, 255 - 4 * yy], axis=2)
-    vi = isophote.encode(np.clip(rgba, 0, 255).astype(np.uint8))
+    vi = isophote.encode(np.clip(rgba, 0, 255).astype(np.uint8), preset="paper")
     monkeypatch.setattr(R, "STRIP_ROWS", 1000)
     whole = render(vi, scale=2.5, depth=16)
     assert whole.shape == (60, 90, 4)
@@ -412,7 +412,7 @@ def test_vertex_touching_a_node_row_is_no_source(scale):
 def test_samples_exactly_on_a_level_render_at_the_level():
     yy, xx = centres(24, 40)
     img = 20.0 + 9.0 * yy  # rows 7 and 17 hold 87.5 and 177.5: levels of the paper preset
-    out = render_float(isophote.encode(img))[..., 0]
+    out = render_float(isophote.encode(img, preset="paper"))[..., 0]
     assert np.abs(out - img)[2:-2, 2:-2].max() <= 1.0  # renders 92.5 and 182.5 there
 
 
@@ -422,7 +422,7 @@ def test_samples_exactly_on_a_level_render_at_the_level():
     "nodes then changes whole neighbourhoods by up to ~3 levels (71 pixels > 0.5)"))
 def test_render_is_stable_under_a_tiny_shift():
     img = skimage.data.camera()[100:164, 100:164]
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     moved = replace(vi, channels=tuple(ch.with_points(ch.points + [0.0, 1e-6]) for ch in vi.channels))
     a = render_float(vi)
     b = render_float(moved)
@@ -439,7 +439,7 @@ def test_plateau_closed_against_the_frame_keeps_its_value(scale):
     # up from the plateau, then down to 10 at the right, so the 37.5 contour exists and closes
     # round the plateau along the frame
     img = np.clip(40.0 + 8.0 * np.clip(xx - 15.0, 0.0, 12.0) - 12.0 * np.maximum(0.0, xx - 28.0), 10.0, 235.0)
-    vi = isophote.encode(img)
+    vi = isophote.encode(img, preset="paper")
     ch = vi.channels[0]
     band_40 = int(np.searchsorted(ch.levels, 40.0, side="right"))
     assert np.any(ch.cap_band == band_40)

@@ -145,7 +145,8 @@ def _noise(text: str):
 ENCODE_FLAGS = {
     "preset": dict(choices=tuple(PRESETS),
                    help="paper: the paper's fixed levels and global error; high: visually "
-                        "indistinguishable; compact: fewest bytes at high quality"),
+                        "indistinguishable; balanced: fewer bytes than paper, more faithful; "
+                        "compact: fewest bytes at high quality"),
     "y_step": dict(type=float, metavar="N", help="Y level spacing in grey levels (default: from the preset)"),
     "uv_step": dict(type=float, metavar="N", help="U and V level spacing (default: from the preset)"),
     "alpha_step": dict(type=float, metavar="N", help="alpha level spacing (default: from the preset)"),
