@@ -62,7 +62,7 @@ def make_figures(outdir, image=None, quick: bool = False, progress=None) -> list
         px = px[:h, :w].reshape(h // 2, 2, w // 2, 2, -1).mean(axis=(1, 3))
     px = np.rint(px) if raster.depth == 8 else px
     say("encoding...")
-    vi = encode_pixels(px, raster.depth, EncodeOptions().resolved())
+    vi = encode_pixels(px, raster.depth, EncodeOptions(preset="paper").resolved())
     out = _Writer(outdir)
     notes = {}
     say("Fig. 1...")
@@ -75,7 +75,7 @@ def make_figures(outdir, image=None, quick: bool = False, progress=None) -> list
     notes.update(_fig10(vi, px, out, "fig10", quick))
     if not quick:
         low = 128.0 + 0.3 * (px - 128.0)
-        vlow = encode_pixels(np.rint(low), 8, EncodeOptions().resolved())
+        vlow = encode_pixels(np.rint(low), 8, EncodeOptions(preset="paper").resolved())
         notes.update(_fig10(vlow, np.rint(low), out, "fig11", quick))
     say("warps...")
     notes.update(_warps(vi, px, out, quick))
