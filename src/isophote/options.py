@@ -26,9 +26,10 @@ from .errors import OptionError
 #            (The paper's range and pruning within 1 eps: 5.48 x PNG, 45.0 dB, 89.2.)
 #   balanced high's noise model, range and pruning with Y every 6 and U, V every 5: fewer
 #            bytes than paper and more faithful on PSNR and SSIMULACRA2: 2.51 x PNG, 41.4 dB,
-#            SSIMULACRA2 82.3, FLIP 0.035; 96k segments; about 1.4 x paper's encode time. Steps measured with high's other
-#            settings (x PNG / dB / SSIMULACRA2): Y 5 U/V 5 3.01 / 42.1 / 84.2; Y 7 U/V 6
-#            2.09 / 40.4 / 79.3; Y 8 U/V 6 1.84 / 39.8 / 76.9.
+#            SSIMULACRA2 82.3, FLIP 0.035; 96k segments; 1.2-1.5 x paper's encode time.
+#            Steps measured with high's other settings (x PNG / dB / SSIMULACRA2): Y 5 U/V 5
+#            3.01 / 42.1 / 84.2; Y 6 U/V 6 2.42 / 41.0 / 81.4; Y 6.5 U/V 6 2.26 / 40.5 / 79.7;
+#            Y 7 U/V 6 2.09 / 40.4 / 79.3; Y 8 U/V 6 1.84 / 39.8 / 76.9.
 # What the measurements said: the noise-aware ribbon halves the segments for 0.3-1 point of
 # SSIMULACRA2; pruning pays in chroma (astronaut: -32 % segments for -2.4 points) but not in
 # luma (-9 % segments for -7 points: the small Y loops are texture, which SSIMULACRA2 sees),
@@ -39,11 +40,11 @@ from .errors import OptionError
 # The default is "balanced": on the corpus mean it is smaller than "paper" and better on every
 # measure (benchmarks/results/report.md: 2.51 against 2.70 x PNG, 41.39 against 40.68 dB,
 # SSIMULACRA2 82.3 against 73.4, FLIP 0.035 against 0.038), and it renders faster at 1x,
-# for about 1.4 x paper's encode time. isophote's first use is a master that every delivery
+# for 1.2-1.5 x paper's encode time. isophote's first use is a master that every delivery
 # size is rendered from, where fidelity per byte comes first. Not on every photograph:
 # camera's balanced file is 12 % larger than its paper one (and 2.7 dB more faithful).
-# "compact" spends 43 % fewer bytes for 3.1 dB and 11.5 points of SSIMULACRA2 less; "high" is for
-# masters that must be indistinguishable; "paper" keeps the paper's regime (§1), on which
+# "compact" spends 43 % fewer bytes for 3.1 dB and 11.5 points of SSIMULACRA2 less; "high"
+# is for masters that must be indistinguishable; "paper" keeps the paper's regime (§1), on which
 # the speed targets and the applications' benchmarks are stated.
 PRESETS = {
     "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=(7.5, 247.5), local_noise=0.0,
