@@ -46,17 +46,26 @@ from .errors import OptionError
 # "compact" spends 43 % fewer bytes for 3.1 dB and 11.5 points of SSIMULACRA2 less; "high"
 # is for masters that must be indistinguishable; "paper" keeps the paper's regime (§1), on which
 # the speed targets and the applications' benchmarks are stated.
+PAPER_RANGE = (7.5, 247.5)  # the paper's levels, 127.5 +- 10k (encoder/levels.py)
+FULL_RANGE = (0.5, 254.5)  # the whole 8-bit scale: every two neighbouring values can be separated
 PRESETS = {
-    "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=(7.5, 247.5), local_noise=0.0,
+    "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=PAPER_RANGE, local_noise=0.0,
                   prune_area_y=0.0, prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5),
-    "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=(7.5, 247.5), local_noise=3.0,
+    "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=PAPER_RANGE, local_noise=3.0,
                     prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0),
-    "balanced": dict(y_step=6.0, uv_step=5.0, alpha_step=6.0, level_range=(0.5, 254.5), local_noise=3.0,
+    "balanced": dict(y_step=6.0, uv_step=5.0, alpha_step=6.0, level_range=FULL_RANGE, local_noise=3.0,
                      prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0),
-    "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=(0.5, 254.5), local_noise=3.0,
+    "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=FULL_RANGE, local_noise=3.0,
                  prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0),
 }
 DEFAULT_PRESET = "balanced"  # why: see above
+LEVEL_CENTRE = 127.5  # stepped levels sit at LEVEL_CENTRE + k * step (encoder/levels.py)
+
+
+def level_steps(step: float, low: float, high: float) -> range:
+    """The k with LEVEL_CENTRE + k * step inside [low, high] (empty when none fits)."""
+    return range(math.ceil((low - LEVEL_CENTRE) / step - 1e-9),
+                 math.floor((high - LEVEL_CENTRE) / step + 1e-9) + 1)
 AUTO_LOCAL_NOISE = 1.0  # the local_noise that noise="auto" asks for on a preset without one
 
 
@@ -158,7 +167,7 @@ class EncodeOptions:
                 raise OptionError(f"level-range must satisfy 0 < LOW <= HIGH < 255, got {lo},{hi}")
             for name in ("y_step", "uv_step", "alpha_step"):
                 step = getattr(self, name)
-                if step is not None and math.floor((hi - 127.5) / step + 1e-9) < math.ceil((lo - 127.5) / step - 1e-9):
+                if step is not None and len(level_steps(step, lo, hi)) == 0:
                     raise OptionError(f"level-range {lo},{hi} holds no level 127.5 + k x {step} "
                                       f"(--{name.replace('_', '-')})")
         if self.noise is not None and (isinstance(self.noise, str) or not (0 <= self.noise <= 64)):

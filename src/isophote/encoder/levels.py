@@ -16,16 +16,15 @@ from __future__ import annotations
 
 import numpy as np
 
-CENTRE = 127.5
-LOW, HIGH = 7.5, 247.5  # the paper's range
-FULL = (0.5, 254.5)  # the whole 8-bit scale: every two neighbouring values can be separated
+from ..options import LEVEL_CENTRE as CENTRE, PAPER_RANGE, level_steps
+
+LOW, HIGH = PAPER_RANGE
 
 
 def preset_levels(step: float, low: float = LOW, high: float = HIGH) -> np.ndarray:
     """127.5 + k*step inside [low, high], increasing (empty when none fits)."""
-    k_lo = int(np.ceil((low - CENTRE) / step - 1e-9))
-    k_hi = int(np.floor((high - CENTRE) / step + 1e-9))
-    return CENTRE + step * np.arange(k_lo, k_hi + 1, dtype=np.float64)
+    k = level_steps(step, low, high)
+    return CENTRE + step * np.arange(k.start, k.stop, dtype=np.float64)
 
 
 def bands(values: np.ndarray, levels: np.ndarray) -> np.ndarray:

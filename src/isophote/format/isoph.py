@@ -302,7 +302,7 @@ import numpy as np
 from .._kernels import entropy
 from ..errors import FormatError, LimitError
 from ..imageio import atomic_write_bytes
-from ..model import CAP_RAMP, Channel, VectorImage
+from ..model import CAP_RAMP, DOME, Channel, VectorImage
 
 # ---- magic numbers: every constant of the format, in one place ----------------------------
 
@@ -508,7 +508,7 @@ def read_info(path_or_bytes) -> dict:
                 "segments": c.n_segments,
                 "caps": c.n_caps,
                 "tone_knots": 0 if c.tone is None else int(c.tone.shape[0]),
-                "cap_ramp": "dome" if c.cap_ramp == float("inf") else float(c.cap_ramp),
+                "cap_ramp": "dome" if c.cap_ramp == DOME else float(c.cap_ramp),
                 "point_grid": QUANT >> c.s_p,
                 "coded_bytes": c.coded_size,
             }
