@@ -15,7 +15,9 @@ from isophote._kernels.diffuse import (
 from isophote._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_ref, innermost_enclosing_rows,
 )
-from isophote._kernels.marching import march, march_loops, march_loops_ref, march_ref
+from isophote._kernels.marching import (
+    _cubic_t, cubic_t_ref, march, march_loops, march_loops_ref, march_ref,
+)
 from isophote._kernels.raster import rasterise, rasterise_ref
 from isophote._kernels.regions import (
     cap_sums, cap_sums_ref, label_regions, label_regions_ref, region_levels, region_levels_ref,
@@ -139,6 +141,49 @@ def test_march_loops_matches_its_twin(seed, quantised):
     g_p[1:-1, 1:-1] = g
     assert np.array_equal(fast[8], g_p.ravel()[fast[3]])
     assert np.array_equal(fast[9], g_p.ravel()[fast[4]])
+
+
+def test_cubic_crossings_have_known_answers_and_a_twin():
+    """The crossing on an edge's cubic: exact on quadratics (Catmull-Rom reproduces them),
+    the straight line on a ramp, inside the edge and in order of level, kernel = twin."""
+    # v = x^2 sampled at -1, 0, 1, 2: the level L crosses at x = sqrt(L)
+    for L in (0.01, 0.2, 0.5, 0.9, 1.0):
+        assert _cubic_t(1.0, 0.0, 1.0, 4.0, L) == pytest.approx(np.sqrt(L), abs=1e-12)
+    # a ramp: the linear t itself
+    for t in (0.1, 0.37, 1.0):
+        assert _cubic_t(-5.0, 0.0, 5.0, 10.0, t) == pytest.approx(t, abs=1e-12)
+    rng = np.random.default_rng(11)
+    n = 4000
+    v0 = rng.uniform(0, 200, n)
+    v1 = v0 + rng.uniform(1e-3, 60, n)
+    vm = v0 + rng.uniform(-80, 80, n)
+    v2 = v1 + rng.uniform(-80, 80, n)
+    t = rng.uniform(0, 1, (n, 3))
+    t.sort(axis=1)
+    t[:, 2] = np.where(rng.random(n) < 0.1, 1.0, t[:, 2])
+    fast = np.array([[_cubic_t(vm[i], v0[i], v1[i], v2[i], t[i, k]) for k in range(3)] for i in range(n)])
+    ref = np.column_stack([cubic_t_ref(vm, v0, v1, v2, t[:, k]) for k in range(3)])
+    assert np.array_equal(fast, ref)
+    assert np.all((fast > 0) & (fast <= 1))
+    assert np.all(np.diff(fast, axis=1) >= 0)  # levels on one edge keep their order
+
+
+def test_march_loops_puts_crossings_on_the_quadratic():
+    """A padded grid whose rows are x^2 (x = column - 3): every crossing of level L on a
+    horizontal edge between two inner samples lies at x = sqrt(L)."""
+    x = np.arange(-2.0, 9.0)
+    grid = np.tile(x * x, (5, 1)) + 0.25  # no sample exactly on a level
+    levels = np.array([2.0, 7.5, 20.0, 41.0])
+    vals, band = pad_grid(grid, levels)
+    out = march_loops(vals, band, levels, grid, np.full(grid.shape, 0.5))
+    assert out[0]
+    pts, border, level, offsets = out[1], out[2], out[10], out[11]
+    lev = np.repeat(levels[level], np.diff(offsets))
+    # grid column c sits at image x = c / 2 (mapping.py), so grid x-coordinate = 2 * image x
+    inner = ~border & (pts[:, 0] > 1.0) & (pts[:, 0] < 4.5)
+    assert inner.sum() >= 8
+    got = 2.0 * pts[inner, 0] - 2.0  # back to x
+    assert np.allclose(got, np.sqrt(lev[inner] - 0.25), atol=1e-9)
 
 
 @pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])

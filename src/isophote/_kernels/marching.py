@@ -19,6 +19,18 @@ is shared by the two cells of its edge, so keys link segments into loops), the l
 border flag, and the start crossing as (below sample, above sample, t): the point lies at
 t of the way from the below sample to the above sample (t = 1 when the below one is padding).
 
+Crossings: :func:`march` reports the linear t, (level - below) / (above - below). The loops
+of :func:`march_loops` place each crossing on the monotone cubic along its grid edge
+instead: the cubic Hermite through the edge's two samples with Catmull-Rom end slopes (from
+the samples one step beyond either end, or the end's own value on the padding), clipped to
+0 when they point against the edge's rise and scaled into Fritsch and Carlson's circle of
+radius 3 so that it rises monotonically. Crossings of several levels on one edge keep
+their order, so loops still never cross; on a linear ramp the cubic is the straight line.
+The grid's midpoints are cubic interpolants already (encoder/mapping.py); the cubic
+crossing carries that between the samples. Corpus, 4x enlargement, high preset (PSNR /
+SSIMULACRA2): linear crossings 26.80 / 17.4, cubic 26.92 / 20.8; at 1x the balanced preset
+goes from 41.48 to 41.67 dB for 0.7 % more bytes.
+
 Linking: the segment after s starts where s ends, on the same edge and level, in the cell
 across that edge, so :func:`march_loops` finds it among that cell's few segments (no sort);
 loops start at, and are ordered by, their smallest start key.
@@ -34,6 +46,8 @@ from numba import njit
 # corner offsets (dr, dc) and edge -> (corner a, corner b)
 _CDR = np.array([0, 0, 1, 1], np.int64)
 _CDC = np.array([0, 1, 1, 0], np.int64)
+# Most Newton (or bisection) steps that place a crossing on its edge's cubic (_cubic_t).
+CUBIC_ITERATIONS = 30
 
 
 @njit(cache=True, nogil=True)
@@ -309,6 +323,54 @@ def _grad_at(grid, r, c):
 
 
 @njit(cache=True, nogil=True)
+def _on_pad(i, hp, wp):
+    """Is flat padded index i on the padding ring?"""
+    r = i // wp
+    c = i - r * wp
+    return r == 0 or c == 0 or r == hp - 1 or c == wp - 1
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _cubic_t(vm, v0, v1, v2, t):
+    """Where the monotone cubic through v0 (at 0) and v1 (at 1) reaches the value that the
+    straight line between them reaches at t (module docstring: "Crossings"); vm and v2 are
+    the samples one step beyond either end. Needs v0 < v1 and 0 < t <= 1."""
+    d = v1 - v0
+    a = 0.5 * (v1 - vm) / d  # Catmull-Rom end slopes, relative to the chord
+    b = 0.5 * (v2 - v0) / d
+    if a < 0.0:
+        a = 0.0
+    if b < 0.0:
+        b = 0.0
+    r = a * a + b * b
+    if r > 9.0:  # Fritsch-Carlson: inside the circle of radius 3 the cubic is monotone
+        f = 3.0 / math.sqrt(r)
+        a *= f
+        b *= f
+    c2 = 3.0 - 2.0 * a - b
+    c3 = a + b - 2.0
+    lo = 0.0
+    hi = 1.0
+    x = t
+    for _ in range(CUBIC_ITERATIONS):
+        g = ((c3 * x + c2) * x + a) * x - t
+        if g == 0.0:
+            return x
+        if g < 0.0:
+            lo = x
+        else:
+            hi = x
+        dg = (3.0 * c3 * x + 2.0 * c2) * x + a
+        xn = x - g / dg if dg > 0.0 else 0.5 * (lo + hi)
+        if not (lo < xn < hi):
+            xn = 0.5 * (lo + hi)
+        if abs(xn - x) <= 1e-12:
+            return xn
+        x = xn
+    return x
+
+
+@njit(cache=True, nogil=True)
 def march_loops(vals, band, levels, grid, grid_eps):
     """All isolines of a padded grid as loops, in one call: marching, linking, and the
     per-point data of encoder/isolines.py.
@@ -438,6 +500,7 @@ def march_loops(vals, band, levels, grid, grid_eps):
     # per point, in travel order: (x, y), the border flag of the segment it starts, its
     # below and above samples, t, and the errors and gradients at those samples
     order = np.argsort(lp_key)
+    vals_f = vals.ravel()
     n_out = 0
     n_kept = 0
     for a in range(n_loops):
@@ -480,6 +543,15 @@ def march_loops(vals, band, levels, grid, grid_eps):
             cb = b - rb * wp
             ra = ab // wp
             ca = ab - ra * wp
+            if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
+                # the crossing on the monotone cubic through the samples beyond both ends
+                # (a sample beyond on the padding is replaced by the end's own)
+                step = ab - b
+                v0 = vals_f[b]
+                v1 = vals_f[ab]
+                vm = vals_f[b - step] if not _on_pad(b - step, hp, wp) else v0
+                v2 = vals_f[ab + step] if not _on_pad(ab + step, hp, wp) else v1
+                tt = _cubic_t(vm, v0, v1, v2, tt)
             # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
             points[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
             points[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
@@ -522,6 +594,21 @@ def march_loops_ref(vals, band, levels, grid, grid_eps):
     below, above, t = seg["below"][order], seg["above"][order], seg["t"][order]
     rb, cb = np.divmod(below, wp)
     ra, ca = np.divmod(above, wp)
+    inner_b = (rb > 0) & (cb > 0) & (rb < hp - 1) & (cb < wp - 1)
+    f = np.asarray(vals, np.float64).ravel()
+    step = above - below
+    before, beyond = below - step, above + step
+
+    def on_pad(i):
+        r, c = np.divmod(i, wp)
+        return (r == 0) | (c == 0) | (r == hp - 1) | (c == wp - 1)
+
+    k = np.flatnonzero(inner_b)
+    v0, v1 = f[below[k]], f[above[k]]
+    vm = np.where(on_pad(before[k]), v0, f[np.clip(before[k], 0, f.size - 1)])
+    v2 = np.where(on_pad(beyond[k]), v1, f[np.clip(beyond[k], 0, f.size - 1)])
+    t = t.copy()
+    t[k] = cubic_t_ref(vm, v0, v1, v2, t[k])
     points = np.column_stack([((cb - 1) + t * (ca - cb)) * 0.5, ((rb - 1) + t * (ra - rb)) * 0.5])
     eps_p = np.zeros((hp, wp))
     eps_p[1:-1, 1:-1] = grid_eps
@@ -533,3 +620,45 @@ def march_loops_ref(vals, band, levels, grid, grid_eps):
     offsets = np.concatenate([[0], np.cumsum([len(lp) for lp in inner])]).astype(np.int64)
     return (True, points, seg["border"][order], below, above, t, ef[below], ef[above], gf[below],
             gf[above], level, offsets, frame_levels)
+
+
+def cubic_t_ref(vm, v0, v1, v2, t):
+    """NumPy twin of _cubic_t, over arrays: the same steps, element by element."""
+    d = v1 - v0
+    a = np.maximum(0.5 * (v1 - vm) / d, 0.0)
+    b = np.maximum(0.5 * (v2 - v0) / d, 0.0)
+    r = a * a + b * b
+    big = r > 9.0
+    f = 3.0 / np.sqrt(np.where(big, r, 9.0))
+    a = np.where(big, a * f, a)
+    b = np.where(big, b * f, b)
+    c2 = 3.0 - 2.0 * a - b
+    c3 = a + b - 2.0
+    x = np.array(t, np.float64)
+    lo = np.zeros_like(x)
+    hi = np.ones_like(x)
+    out = x.copy()
+    live = np.ones(x.shape, bool)
+    for _ in range(CUBIC_ITERATIONS):
+        k = np.flatnonzero(live)
+        if k.size == 0:
+            break
+        xk = x[k]
+        g = ((c3[k] * xk + c2[k]) * xk + a[k]) * xk - t[k]
+        root = g == 0.0
+        out[k[root]] = xk[root]
+        live[k[root]] = False
+        k, xk, g = k[~root], xk[~root], g[~root]
+        below = g < 0.0
+        lo[k] = np.where(below, xk, lo[k])
+        hi[k] = np.where(below, hi[k], xk)
+        dg = (3.0 * c3[k] * xk + 2.0 * c2[k]) * xk + a[k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xn = np.where(dg > 0.0, xk - g / np.where(dg > 0.0, dg, 1.0), 0.5 * (lo[k] + hi[k]))
+        xn = np.where((lo[k] < xn) & (xn < hi[k]), xn, 0.5 * (lo[k] + hi[k]))
+        done = np.abs(xn - xk) <= 1e-12
+        out[k[done]] = xn[done]
+        live[k[done]] = False
+        x[k] = xn
+        out[k[~done]] = xn[~done]
+    return out
