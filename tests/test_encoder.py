@@ -181,7 +181,10 @@ def test_cone_isolines_are_circles(sign):
         p = iso.loop(i)
         r = np.hypot(p[:, 0] - CX, p[:, 1] - CY)
         assert abs(r.mean() - radius) < 0.05, (L, r.mean(), radius)
-        assert np.abs(r - radius).max() < (0.1 if radius > 2.5 else 0.2), (L, radius)
+        # near the apex and near the crease where the cone meets its floor (radius 23.75)
+        # the cubic midpoints (Keys' a = -1, encoder/mapping.py) bend the circle most
+        bound = 0.1 if 2.5 < radius < (PEAK - 10.0) / SLOPE - 1.5 else 0.2
+        assert np.abs(r - radius).max() < bound, (L, radius)
         # orientation: higher values on the left as seen on screen (y down)
         area = signed_area(p)
         assert np.sign(area) == -sign  # peaks: negative shoelace area; pits: positive

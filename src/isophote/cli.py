@@ -183,8 +183,8 @@ ENCODE_FLAGS = {
     "carrato_p": dict(type=float, metavar="P", help="p of the Carrato 2x upsampling (paper 3.2)"),
     "carrato_scale": dict(type=float, metavar="G", help="intensity unit of the Carrato differences, in grey levels"),
     "carrato_cubic": dict(type=float, metavar="W",
-                          help="weight of the cubic (Catmull-Rom) term under the Carrato midpoints: 1 = "
-                               "cubic, 0 = the paper's linear base"),
+                          help="weight of the cubic term under the Carrato midpoints: 2 = Keys' a = -1 "
+                               "cubic (default), 1 = Catmull-Rom, 0 = the paper's linear base"),
 }
 ENCODE_ADVANCED = ("level_range", "local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
                    "min_tolerance",

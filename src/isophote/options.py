@@ -102,8 +102,8 @@ class EncodeOptions:
     carrato_scale : intensity unit (in grey levels) in which the Carrato differences are
         measured; p = 0.5 acts on differences in this unit (see encoder.mapping).
     carrato_cubic : weight of the cubic (Catmull-Rom) term added to the midpoints: 1 puts
-        Carrato's edge-adaptive weight on a cubic base, 0 on the paper's linear one (see
-        encoder.mapping).
+        Carrato's edge-adaptive weight on Catmull-Rom's cubic base, 2 (the default) on Keys'
+        sharper a = -1 cubic, 0 on the paper's linear one (see encoder.mapping).
     """
 
     preset: str = DEFAULT_PRESET
@@ -125,7 +125,7 @@ class EncodeOptions:
     max_tolerance: float | None = None
     carrato_p: float = 0.5
     carrato_scale: float = 64.0
-    carrato_cubic: float = 1.0
+    carrato_cubic: float = 2.0
 
     def resolved(self) -> "EncodeOptions":
         """Fill the fields left at None from the preset, and validate."""
