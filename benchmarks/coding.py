@@ -2,8 +2,8 @@
 encoder grid costs in render quality.
 
 For each corpus photograph, encoded with the paper preset at each encoder grid QUANT (the
-control points' and cap values' grid; the fitter shrinks its ribbon by the rounding), this
-measures the .isoph bytes of
+control points' and cap values' grid; the fitter shrinks its ribbon by the rounding) with
+every handle fitted on that grid, this measures the .isoph bytes of
 
     columns+zlib   version 1's coding: byte-planed column layout, zlib (the old default)
     columns+lzma   the same columns, LZMA2
@@ -11,8 +11,15 @@ measures the .isoph bytes of
     range v2, g=0  range coding with predictions and context models (format version 2's
                    layout), no anchor grid
     range v2       ... and the anchor grid
-    range          version 3's layout: chords after half the previous chord, handles in the
-                   chord's frame (the writer's default, compression "range")
+    range v3       version 3's layout: chords after half the previous chord, handles in the
+                   chord's frame
+    range          version 4's layout (the writer's default, compression "range"): version 3
+                   and a handle shift per segment, which handles on the 1/64 grid do not use
+
+and then, encoded with the handles on coarse grids where their ribbon allows (the encoder's
+default, encoder.HANDLE_SHIFT), the bytes of
+
+    coarse handles version 4 (the encoder's and writer's defaults)
 
 and the render's PSNR / SSIMULACRA2 against the original at 1x (the decoder's defaults), all
 in one run so that every number comes from the same decoder. Then bytes per stream (zlib per
@@ -21,8 +28,8 @@ write / read times of dumps / loads.
 
     .venv/bin/python benchmarks/coding.py [--images ...] [--quants 64,32,16] [--out benchmarks/results]
 
-The encoder's QUANT is a module constant; this script sets it (and the fitter's shrink
-``_ROUNDING``) for each row and puts it back afterwards.
+The encoder's QUANT and HANDLE_SHIFT are module constants; this script sets them (and the
+fitter's shrink ``_ROUNDING``) for each row and puts them back afterwards.
 """
 
 from __future__ import annotations
@@ -41,16 +48,18 @@ from isophote import metrics
 from isophote._kernels import entropy
 from isophote.format import isoph
 
-STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range"]
+STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range v3", "range"]
+COARSE = "coarse handles"
 
 
-def encode_at(img, quant: int):
-    saved = encoder.QUANT, encoder._ROUNDING
+def encode_at(img, quant: int, handle_shift: int = 0):
+    saved = encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT
     encoder.QUANT, encoder._ROUNDING = quant, 0.5 / quant * np.sqrt(2.0)
+    encoder.HANDLE_SHIFT = handle_shift
     try:
         return isophote.encode(img, preset="paper")
     finally:
-        encoder.QUANT, encoder._ROUNDING = saved
+        encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT = saved
 
 
 def column_values(ch) -> dict:
@@ -104,7 +113,7 @@ STREAMS = {  # range coding's models, by stream
     "parent": ["RANK", "FAR"], "level": ["LEVEL_REL", "LEVEL_ABS"], "nseg": ["NSEG"],
     "first points": ["P0F", "P0C"], "chords": ["DFX", "DFY", "DCX", "DCY"],
     "handles": ["HX", "HY", "GX", "GY"], "cap_contour": ["CC"], "cap_band": ["BAND_REL", "BAND_ROOT"],
-    "cap_xy": ["CXY"], "cap_value": ["CVAL"],
+    "cap_xy": ["CXY"], "cap_value": ["CVAL"], "handle shifts": ["HS"],
 }
 
 
@@ -151,7 +160,8 @@ def main(argv=None):
 
     rows = {}  # (step, quant) -> {image: bytes}
     quality = {}  # quant -> {image: (psnr, ssimulacra2, segments)}
-    streams_cols, streams_range, streams_v2, times = {}, {}, {}, {}
+    streams_cols, streams_range, streams_v2, streams_coarse, times = {}, {}, {}, {}, {}
+    coarse_quality = {}
     for q in quants:
         quality[q] = {}
         for name in names:
@@ -169,8 +179,9 @@ def main(argv=None):
                 steps["columns+rc"] = header + columns_rc(checked)
                 steps["range v2, g=0"] = header + range_bytes(checked, g_forced=0, version=2)[0]
                 steps["range v2"] = header + range_bytes(checked, version=2)[0]
+                steps["range v3"] = header + range_bytes(checked, version=3)[0]
                 streams_cols[name] = stream_bytes_columns(checked)
-                streams_range[name] = stream_bytes_range(range_bytes(checked, account=True)[1])
+                streams_range[name] = stream_bytes_range(range_bytes(checked, account=True, version=3)[1])
                 streams_v2[name] = stream_bytes_range(range_bytes(checked, account=True, version=2)[1])
                 for comp in ("zlib", "range"):
                     t0 = time.perf_counter()
@@ -180,6 +191,14 @@ def main(argv=None):
                     t2 = time.perf_counter()
                     assert back.equals(vi)
                     times[(name, comp)] = (t1 - t0, t2 - t1, segs)
+                cv = encode_at(img, q, encoder.HANDLE_SHIFT)
+                cout = cv.render()
+                coarse_quality[name] = (metrics.psnr(img, cout), metrics.ssimulacra2(img, cout),
+                                        sum(c.n_segments for c in cv.channels))
+                steps[COARSE] = len(isoph.dumps(cv))
+                assert isoph.loads(isoph.dumps(cv)).equals(cv)
+                streams_coarse[name] = stream_bytes_range(
+                    range_bytes([isoph._checked_channel(c) for c in cv.channels], account=True)[1])
             for step, nbytes in steps.items():
                 rows.setdefault((step, q), {})[name] = nbytes
             p, s2, _ = quality[q][name]
@@ -201,16 +220,21 @@ def main(argv=None):
         "| step | QUANT | " + " | ".join(names) + " | mean x PNG | vs columns+zlib | mean PSNR dB | mean SSIMULACRA2 |",
         "|---|---|" + "---|" * len(names) + "---|---|---|---|",
     ]
-    ordered = [(s, q0) for s in STEPS] + [("range", q) for q in quants[1:]]
+    ordered = [(s, q0) for s in STEPS] + [(COARSE, q0)] + [("range", q) for q in quants[1:]]
     for step, q in ordered:
         r = rows[(step, q)]
         xpng = np.mean([r[n] / png[n] for n in names])
         rel = np.mean([r[n] / base[n] for n in names])
-        mp = np.mean([quality[q][n][0] for n in names])
-        ms = np.mean([quality[q][n][1] for n in names])
+        qual = coarse_quality if step == COARSE else quality[q]
+        mp = np.mean([qual[n][0] for n in names])
+        ms = np.mean([qual[n][1] for n in names])
         lines.append(f"| {step} | {q} | " + " | ".join(f"{r[n]:,}" for n in names)
                      + f" | {xpng:.2f} | {rel:.3f} | {mp:.3f} | {ms:.2f} |")
-    lines += ["", "PNG bytes: " + ", ".join(f"{n} {png[n]:,}" for n in names), ""]
+    lines += ["", "PNG bytes: " + ", ".join(f"{n} {png[n]:,}" for n in names), "",
+              f"{COARSE}: the encoder puts each segment's handles on the coarsest grid, up to "
+              f"2**{encoder.HANDLE_SHIFT} / {q0} px in the chord's frame, on which the segment stays in "
+              "its ribbon; version 4 codes them divided by that grid. Segments: "
+              + ", ".join(f"{n} {coarse_quality[n][2]:,}" for n in names) + " (the same joints as above).", ""]
 
     lines += [f"## Each encoder grid against QUANT {q0} (range coding)", "",
               "| QUANT | bytes | segments | PSNR change dB | SSIMULACRA2 change |", "|---|---|---|---|---|"]
@@ -232,17 +256,21 @@ def main(argv=None):
 
     lines += [f"## Bytes per stream, QUANT {q0} (all photographs)", "",
               "Columns: each column zlib-compressed on its own. Range: the coder's bit count per",
-              "model (exact to a few bytes per channel), in version 2's layout and version 3's.", "",
-              "| columns+zlib stream | bytes | range stream | v2 bytes | v3 bytes |", "|---|---|---|---|---|"]
+              "model (exact to a few bytes per channel), in version 2's layout and version 3's, and",
+              "version 4's with coarse handles.", "",
+              "| columns+zlib stream | bytes | range stream | v2 bytes | v3 bytes | v4 coarse handles bytes |",
+              "|---|---|---|---|---|---|"]
     cs = {k: sum(streams_cols[n][k] for n in names) for k in streams_cols[names[0]]}
     rs = {k: sum(streams_range[n][k] for n in names) for k in streams_range[names[0]]}
     r2 = {k: sum(streams_v2[n][k] for n in names) for k in streams_v2[names[0]]}
+    r4 = {k: sum(streams_coarse[n][k] for n in names) for k in streams_coarse[names[0]]}
     ck, rk = list(cs), list(rs)
     for i in range(max(len(ck), len(rk))):
         a = f"{ck[i]} | {cs[ck[i]]:,.0f}" if i < len(ck) else " | "
-        b = f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f}" if i < len(rk) else " | | "
+        b = f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f} | {r4[rk[i]]:,.0f}" if i < len(rk) else " | | | "
         lines.append(f"| {a} | {b} |")
-    lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(r2.values()):,.0f} | {sum(rs.values()):,.0f} |", ""]
+    lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(r2.values()):,.0f} | {sum(rs.values()):,.0f} "
+              f"| {sum(r4.values()):,.0f} |", ""]
 
     lines += [f"## Write / read time, QUANT {q0}", "", "| image | segments | zlib write s | zlib read s | range write s | range read s |",
               "|---|---|---|---|---|---|"]

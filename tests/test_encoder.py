@@ -636,7 +636,7 @@ def test_map_pixels_matches_its_numpy_twin():
 def _fit_isolines_ref(iso, snap):
     """Plain twin of encoder.fit_isolines: every loop on its own, border runs in a Python
     loop (the implementation the vectorised one replaced)."""
-    from isophote.encoder import _ROUNDING
+    from isophote.encoder import _ROUNDING, HANDLE_SHIFT
     from isophote.encoder.fit import fit_polyline
 
     tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
@@ -646,7 +646,7 @@ def _fit_isolines_ref(iso, snap):
         pts, brd, tl = iso.points[o0:o1], iso.border[o0:o1], tol[o0:o1]
         n = len(pts)
         if not brd.any():
-            ch = fit_polyline(pts, tl, True, snap)
+            ch = fit_polyline(pts, tl, True, snap, HANDLE_SHIFT)
             chains.append(ch)
             borders.append(np.zeros((len(ch) - 1) // 3, bool))
             continue
@@ -676,7 +676,7 @@ def _fit_isolines_ref(iso, snap):
                     parts.append(ch[1:] if parts else ch)
                     flags.append(np.ones((len(ch) - 1) // 3, bool))
             else:
-                ch = fit_polyline(pts[run], tl[run], False, snap)
+                ch = fit_polyline(pts[run], tl[run], False, snap, HANDLE_SHIFT)
                 parts.append(ch[1:] if parts else ch)
                 flags.append(np.zeros((len(ch) - 1) // 3, bool))
             start = stop

@@ -60,8 +60,9 @@ def joint_angles(chain, closed):
     return np.array(out)
 
 
-def check_chain(points, tol, closed, chain, bulge_eps=1e-9):
-    """The fitter's guarantees, checked independently."""
+def check_chain(points, tol, closed, chain, bulge_eps=1e-9, samples=200):
+    """The fitter's guarantees, checked independently (``samples``: chain_distance's, more
+    for chains with very long segments, whose sparse samples overestimate distances)."""
     assert chain.dtype == np.float64 and chain.ndim == 2 and chain.shape[1] == 2
     assert (len(chain) - 1) % 3 == 0 and len(chain) >= 4
     assert np.all(np.isfinite(chain))
@@ -74,7 +75,7 @@ def check_chain(points, tol, closed, chain, bulge_eps=1e-9):
         assert np.array_equal(chain[0], points[0]) and np.array_equal(chain[-1], points[-1])
         q, t = points, tol
     # every point within its tolerance of the curve
-    d = chain_distance(chain, points)
+    d = chain_distance(chain, points, samples)
     assert np.all(d <= tol * (1 + 1e-9) + 1e-12), (d / tol).max()
     # joints are input points, in order; each segment's curve stays within the largest
     # tolerance of its span of the polyline. A joint on a run of repeated points may be any
@@ -243,6 +244,36 @@ def random_batch(seed, count):
 def test_random_curves_within_ribbon(snap):
     for pts, tol, closed in random_batch(1, 40):
         check_chain(pts, tol, closed, fit_polyline(pts, tol, closed, snap=snap))
+
+
+def test_coarse_handles_stay_in_the_ribbon_and_on_their_grids():
+    """coarsen = 5: the handles move onto the file's coarse grids (the residual against the
+    straight segment's thirds, in the chord's frame, a multiple of 2**sh / 64 px, sh <= 5,
+    the anchors rounded to 1/64 px) where the segment still fits, the chain keeps every
+    guarantee and its joints, most segments get a coarse grid, and the kernel equals its
+    twin."""
+    from isophote._kernels.entropy_ref import chord_frame, rnd3, to_frame
+
+    shifts = []
+    for pts, tol, closed in random_batch(11, 40):
+        pts = np.round(pts * 64) / 64  # anchors on the 1/64 grid, as the encoder's rounding leaves them
+        chain = fit_polyline(pts, tol, closed, coarsen=5)
+        check_chain(pts, tol, closed, chain, samples=2000)  # batch 11 has a loop-long segment
+        ref = fit_polyline_ref(pts, tol, closed, math.cos(math.radians(20.0)), coarsen=5)
+        np.testing.assert_allclose(chain, ref, rtol=1e-9, atol=1e-9)
+        assert n_segments(chain) == n_segments(fit_polyline(pts, tol, closed))  # the same joints
+        p = np.rint(chain * 64).astype(np.int64)  # as the encoder rounds (a segment no
+        # coarse grid fits keeps its handles, rounded to 1/64 px there)
+        for g in range(n_segments(chain)):
+            a, ca, cb, b = (p[3 * g + k] for k in range(4))
+            d = b - a
+            fr = chord_frame(int(d[0]), int(d[1]))
+            h = to_frame(fr, int(ca[0] - a[0] - rnd3(int(d[0]))), int(ca[1] - a[1] - rnd3(int(d[1]))))
+            r = to_frame(fr, int(cb[0] - b[0] + rnd3(int(d[0]))), int(cb[1] - b[1] + rnd3(int(d[1]))))
+            low = h[0] | h[1] | r[0] | r[1]
+            shifts.append(min(5, (low & -low).bit_length() - 1) if low else 5)
+    shifts = np.array(shifts)
+    assert np.mean(shifts >= 3) > 0.5, np.bincount(shifts)
 
 
 def wild_polyline(rng):

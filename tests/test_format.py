@@ -173,7 +173,7 @@ def grid_shift(values, most=6) -> int:
     return s
 
 
-def spec_range(c: dict, version: int = 3) -> tuple:
+def spec_range(c: dict, version: int = 4) -> tuple:
     """One channel's range-coded bytes in ``version``'s layout and its grids (s_p, g, s_c,
     s_v), as the spec says: the coarsest grids that lose nothing; the anchor grid g scoring
     best at 2 g (on-grid anchor coordinates) - 3 (anchors), if that is > 0. A dict may set
@@ -200,7 +200,7 @@ def spec_range(c: dict, version: int = 3) -> tuple:
 
 
 def spec_file(channels, *, width=40, height=30, colour=0, depth=8, compression=0, xy_quant=64,
-              value_quant=64, version=3, reserved=0, meta=b"", raw_extra=b"", raw_size=None,
+              value_quant=64, version=4, reserved=0, meta=b"", raw_extra=b"", raw_size=None,
               header_extra=b"", payload_size=None, file_extra=b"", payload=None) -> bytes:
     """A file from spec-level fields; every field can lie, the checksums are always right.
 
@@ -493,7 +493,7 @@ def range_coded(c: dict) -> bytes:
 LIES = {
     # name: (spec_file arguments, exception, message fragment)
     "bad magic": (None, FormatError, "bad magic"),
-    "version 4": (dict(version=4), FormatError, "version 4"),
+    "version 5": (dict(version=5), FormatError, "version 5"),
     "reserved": (dict(reserved=1), FormatError, "reserved"),
     "width 0": (dict(width=0), FormatError, "empty"),
     "width absurd": (dict(width=(1 << 20) + 1), LimitError, "exceeds"),
@@ -705,7 +705,7 @@ def test_save_load_and_read_info(tmp_path):
     assert isoph.load(str(path)).equals(vi)
     for source in (path, str(path), path.read_bytes()):
         info = isoph.read_info(source)
-        assert info["format_version"] == 3 and info["compression"] == "range"
+        assert info["format_version"] == 4 and info["compression"] == "range"
         assert (info["width"], info["height"], info["colour"]) == (vi.width, vi.height, "yuv")
         assert info["source_depth"] == vi.source_depth
         assert info["bytes"] == path.stat().st_size
@@ -907,7 +907,7 @@ def test_version_1_files_are_read():
     out = isoph.loads(old)
     assert out.equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
     assert isoph.read_info(old)["format_version"] == 1
-    assert isoph.read_info(isoph.dumps(out))["format_version"] == 3
+    assert isoph.read_info(isoph.dumps(out))["format_version"] == 4
 
 
 # random_image(3, "yuv", n_contours=2, n_levels=3) as version 1's writer (isophote 0.1) wrote it
@@ -940,18 +940,25 @@ def fingerprint(vi: VectorImage) -> str:
     return h.hexdigest()
 
 
+def spec_range_round_trip(seed, version):
+    """A random image through the spec writer's range-coded file of ``version``: it loads
+    back equal. Returns (loaded image, file)."""
+    vi = random_image(seed, "yuv+alpha")
+    meta = json.dumps(vi.meta, sort_keys=True, separators=(",", ":"), ensure_ascii=False).encode()
+    data = spec_file([spec_channel(c) for c in vi.channels], width=vi.width, height=vi.height,
+                     colour=1, depth=vi.source_depth, compression=3, meta=meta, version=version)
+    out = isoph.loads(data)
+    assert out.equals(vi) and isoph.read_info(data)["format_version"] == version
+    return out, data
+
+
 def test_version_2_files_are_read():
     """Range-coded files of format version 2 load: the spec writer's (version 2's layout of
     the coded channels), and files written by version 2's own writer, one with fitted
     contours on an anchor grid."""
     for seed in (43, 44):
-        vi = random_image(seed, "yuv+alpha")
-        meta = json.dumps(vi.meta, sort_keys=True, separators=(",", ":"), ensure_ascii=False).encode()
-        data = spec_file([spec_channel(c) for c in vi.channels], width=vi.width, height=vi.height,
-                         colour=1, depth=vi.source_depth, compression=3, meta=meta, version=2)
-        out = isoph.loads(data)
-        assert out.equals(vi) and isoph.read_info(data)["format_version"] == 2
-        assert isoph.dumps(out) != data  # written again as version 3: another layout
+        out, data = spec_range_round_trip(seed, 2)
+        assert isoph.dumps(out) != data  # written again as version 4: another layout
     old = bytes.fromhex(V2_FILE)
     assert isoph.read_info(old)["format_version"] == 2 and isoph.read_info(old)["compression"] == "range"
     assert isoph.loads(old).equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
@@ -961,7 +968,56 @@ def test_version_2_files_are_read():
     out = isoph.loads(old)
     assert fingerprint(out) == V2_FITTED_FINGERPRINT
     again = isoph.dumps(out)
-    assert isoph.read_info(again)["format_version"] == 3 and isoph.loads(again).equals(out)
+    assert isoph.read_info(again)["format_version"] == 4 and isoph.loads(again).equals(out)
+
+
+def test_version_3_files_are_read():
+    """Range-coded files of format version 3 load: the spec writer's (version 3's layout,
+    every handle coded on the 1/64 grid) and a file of fitted contours written by version
+    3's own writer; written again they become version 4."""
+    for seed in (45, 46):
+        spec_range_round_trip(seed, 3)
+    old = bytes.fromhex(V3_FILE)
+    assert isoph.read_info(old)["format_version"] == 3
+    out = isoph.loads(old)
+    assert fingerprint(out) == V3_FINGERPRINT
+    again = isoph.dumps(out)
+    assert isoph.read_info(again)["format_version"] == 4 and isoph.loads(again).equals(out)
+
+
+# a 12 x 14 sine pattern with noise, encoded (balanced) and written by version 3's writer
+V3_FILE = (
+    "8949534f50480d0a03000000bb0100000e0000000c0000000008010340004000b3030000000000003d13000000000000"
+    "3d671b4a00000000592b00090024000000b800000007000000000000070500b303000000000000000000000000f83f00"
+    "00000000001e400000000000002b40000000000080334000000000008039400000000000803f400000000000c0424000"
+    "00000000c045400000000000c048400000000000c04b400000000000c04e400000000000e05040000000000060524000"
+    "00000000e0534000000000006055400000000000e0564000000000006058400000000000e059400000000000605b4000"
+    "00000000e05c400000000000605e400000000000e05f400000000000b060400000000000706140000000000030624000"
+    "00000000f062400000000000b06340000000000070644000000000003065400000000000f065400000000000b0664000"
+    "0000000070674000000000003068400000000000f068400000000000b069400000000000706a400000000000306b4000"
+    "00000000f06b400000000000b06c400000000000706d400000000000306e400000000000f06e400000000000b06f4000"
+    "00000000000040f4f429339c9a51a3b18f2a7b9b4d019bc2848be48bdfcae13770c1910f83cfb0d874a87d0a9b1711c5"
+    "00bdd330e4bd94c9aedf4dc27f571d9f1b09c5bf531d14cf9c7913a77fb956bef411a6139d1d319e833244aaeeaf38dc"
+    "758f0078e393ff181c55c318b3b0b7ee730be30fb574f52655109e721f47ab4c590668aaca3ee6dbe4d033e2309fb3fc"
+    "42072a03f7c094eb105e56d02f15cd9f2ebe102c356f9b7b49a527e1c0fc5940ce6ae4a68914d5e8ccb33d52699d8de5"
+    "3cae9803155f73dc225100d7a8ffd4ff35d24766a2ab3a90263b79a4fc7add224c27a314502588601d290d9167796a2e"
+    "9bd715da7090d3d71e786595ab5ef5724605bbc089db35e18db9f20e7b75e8b9a5ea681eadbdd6e137a39c76c097f2ed"
+    "e3bd8a5febb215e3ba98603ddce8dc77095c23bb9da1edac8362023aba719a0adc8bdb5eccd910f5f3f40b32c6f3b2a5"
+    "7e2b0f58380fbed74ff0d5c0a3d24333518283dad686099548c6bbcbf54bc89609598ce92a8f6e485eabc7bc07ab0212"
+    "a5b4fd44a7d3af2b06e0bd0898557933e19d5944e973fe15c23a9b861986dbb0ed39bf939599ec4740c1c3287fd5dc47"
+    "75c9a2c5ee5aff589e4fcad8c53f1f0a610dd4788a520061a0db0a925b29deefc35f2a4da59b83e6d0a6c6f758aa1205"
+    "cedd67d088680bbaa716a4171f6a2a290b145921f58f5929baa169dbd17efff702fec61e58412854da4dca74b33922aa"
+    "0db33ca108be0238967432550a5e724e36ed9f20ed0cfe534d34edcdda5252c402e0b03fa90024609dea2a36dc46c497"
+    "a1baad15f48757e491ffea068963525050110f0608768da7a4c73e63064ccbfb1da1922822b02c1cbd83b57e857292e9"
+    "cbc42b5c3aaa4c9b6f00ed746ef2d3da6eebc31f16073a2e24425135f734916391b8b3d16fd6db238f5189f4a2cbe28d"
+    "af478927b84a699863e380776559df97d6095b40d7d2548b3f929d25bf1c9f3ac6209cbfeee662cdccf3e32e40d9748a"
+    "335bbf373cfaa9032b961222e32487f43b9228d8be8d1308655f4f2703a3bd0b64dd15888479f0938ccde340c815f230"
+    "4179cd83fa2fc518e5a6f61c79482dea66a5bcc5223c532630bb897bbae49932895d9a74988577c13d347dd024e69b78"
+    "0fb554076775e99c7fa570a989060634e512114de37567510d27a676f64833861d6f1b3e7efae4a89e878c4fa76f9a75"
+    "76b073248ceb9a278a2dc2247e3bf1602a597c2a99bdf394dbfbd2c37edaa8ac0fe7350637d1a4e4d1d069b5d49072cb"
+    "a3a9cd5f404d7e8bcdaf63860d726551eeedec2c10d1c5ac728b00250f0fc34ff445d67f86b4bd34cb4f0037bc00"
+)
+V3_FINGERPRINT = "3df7e0535ab4839ff540939333c72b9961ffc5e3250fcf437bd4912d2b4dba5e"
 
 
 # random_image(3, "yuv", tone=False, n_contours=2, n_levels=3) as version 2's writer wrote it

@@ -57,6 +57,7 @@ _MODELS = [
     ("DFX", 2 * NB), ("DFY", 2 * NB), ("DCX", 2 * NB), ("DCY", 2 * NB),
     ("HX", 2 * NB), ("HY", NB * NB + 1), ("GX", NB * NB + 1), ("GY", NB * NB + 1),
     ("CC", 1), ("BAND_REL", 1), ("BAND_ROOT", 1), ("CXY", 2), ("CVAL", 3),
+    ("HS", 18),
 ]
 M = {}
 _n = 0
@@ -73,6 +74,8 @@ M_RANK, M_FAR, M_LEVEL_REL, M_LEVEL_ABS, M_NSEG = M["RANK"], M["FAR"], M["LEVEL_
 M_P0F, M_P0C, M_DFX, M_DFY, M_DCX, M_DCY = M["P0F"], M["P0C"], M["DFX"], M["DFY"], M["DCX"], M["DCY"]
 M_HX, M_HY, M_GX, M_GY = M["HX"], M["HY"], M["GX"], M["GY"]
 M_CC, M_BAND_REL, M_BAND_ROOT, M_CXY, M_CVAL = M["CC"], M["BAND_REL"], M["BAND_ROOT"], M["CXY"], M["CVAL"]
+M_HS = M["HS"]
+MAX_HANDLE_SHIFT = 5  # layout 4: a segment's handles on the 2**h grid, h = 0 .. this
 BORDER_CTX = NB * NB  # the HY/GX/GY model of border segments
 
 LIMIT = 1 << 30  # |coordinate| and |cap value| in 1/64 units (isoph.COORD_LIMIT)
@@ -473,28 +476,57 @@ def _dec_handle_terms(ds, inp, probs, layout, b, db):
 
 
 @njit(cache=True, nogil=True)
-def _enc_handles(st, out, probs, layout, b, db, dx, dy, hx, hy, gx, gy):
+def _shift_ctx(prev_h, db):
+    """The model of a segment's handle shift: the previous shift and the chord's length."""
+    return M_HS + 3 * prev_h + (0 if db <= 7 else (1 if db <= 9 else 2))
+
+
+@njit(cache=True, nogil=True)
+def _enc_handles(st, out, probs, layout, b, db, dx, dy, hx, hy, gx, gy, prev_h):
     """One segment's handle residuals h = (hx, hy), r = (gx, gy). Layout 2 codes them as
     they are; layout 3 in the chord's frame, (h.a, h.c) and (r.a, r.c), with r.a after
-    -h.a / 2 (the two handles tend to grow and shrink together)."""
+    -h.a / 2 (the two handles tend to grow and shrink together); layout 4 as 3, after the
+    segment's handle shift (non-border segments): the largest sh <= MAX_HANDLE_SHIFT that
+    divides all four frame terms, which are then coded divided by 2**sh. Returns sh."""
+    sh = 0
     if layout >= 3:
         sg, p, q = _frame(dx, dy)
         hx, hy = _to_frame(sg, p, q, hx, hy)
         gx, gy = _to_frame(sg, p, q, gx, gy)
+        if layout >= 4 and b == 0:
+            low = hx | hy | gx | gy
+            while sh < MAX_HANDLE_SHIFT and (low >> sh) & 1 == 0:
+                sh += 1
+            _enc_uint(st, out, probs, _shift_ctx(prev_h, db), sh)
+            hx >>= sh
+            hy >>= sh
+            gx >>= sh
+            gy >>= sh
         gx += (hx + 1) >> 1
     _enc_handle_terms(st, out, probs, layout, b, db, hx, hy, gx, gy)
+    return sh
 
 
 @njit(cache=True, nogil=True)
-def _dec_handles(ds, inp, probs, layout, b, db, dx, dy):
-    """The inverse of _enc_handles: (hx, hy, gx, gy)."""
+def _dec_handles(ds, inp, probs, layout, b, db, dx, dy, prev_h):
+    """The inverse of _enc_handles: (hx, hy, gx, gy, sh); sh = -1 for a shift beyond
+    MAX_HANDLE_SHIFT (a corrupt file)."""
+    sh = 0
+    if layout >= 4 and b == 0:
+        sh = _dec_uint(ds, inp, probs, _shift_ctx(prev_h, db))
+        if sh > MAX_HANDLE_SHIFT:
+            return 0, 0, 0, 0, -1
     hx, hy, gx, gy = _dec_handle_terms(ds, inp, probs, layout, b, db)
     if layout >= 3:
         gx -= (hx + 1) >> 1
+        hx <<= sh
+        hy <<= sh
+        gx <<= sh
+        gy <<= sh
         sg, p, q = _frame(dx, dy)
         hx, hy = _from_frame(sg, p, q, hx, hy)
         gx, gy = _from_frame(sg, p, q, gx, gy)
-    return hx, hy, gx, gy
+    return hx, hy, gx, gy, sh
 
 
 @njit(cache=True, nogil=True)
@@ -510,8 +542,8 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     cap_contour, cap_band : (K,) int64; cap_xy : (K, 2) int64 on the cap grid;
     cap_value : (K,) int64 on the value grid.
     s_p, s_c, s_v : the grids' shifts from 1/64; levels : (L,) float64; base_band : int.
-    layout : 2 or 3, the format version whose predictions to use (3: chords after half the
-        previous chord, handles in the chord's frame).
+    layout : 2, 3 or 4, the format version whose predictions to use (3: chords after half the
+        previous chord, handles in the chord's frame; 4: 3 and the handle shifts).
     """
     probs = new_probs_kernel()
     st = np.zeros(5 + (N_MODELS + 18 if account else 0), np.int64)
@@ -538,6 +570,7 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
 
     # points
     half_g = (1 << g) >> 1
+    prev_h = 0
     px0 = np.int64(0)
     py0 = np.int64(0)
     t = 0
@@ -609,7 +642,9 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
             hy = pts[t + 3 * i + 1, 1] - ay - _rnd3(dy)
             gx = pts[t + 3 * i + 2, 0] - nx + _rnd3(dx)
             gy = pts[t + 3 * i + 2, 1] - ny + _rnd3(dy)
-            _enc_handles(st, out, probs, layout, b, db, dx, dy, hx, hy, gx, gy)
+            sh = _enc_handles(st, out, probs, layout, b, db, dx, dy, hx, hy, gx, gy, prev_h)
+            if b == 0:
+                prev_h = sh
         t += 3 * n
         s0 += n
 
@@ -657,7 +692,7 @@ def new_probs_kernel():
 
 @njit(cache=True, nogil=True)
 def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
-    """The inverse of encode_channel (``layout`` 2 or 3), checking as it goes.
+    """The inverse of encode_channel (``layout`` 2, 3 or 4), checking as it goes.
 
     Returns (status, where, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy,
     cap_value): q is (3 S + C, 2) int64 in 1/64 px with every chain closed; cap_xy and
@@ -711,6 +746,7 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
     # points (on the point grid while decoding; checked against the limit in 1/64 px)
     lim = LIMIT >> s_p  # |u << s_p| < LIMIT  <=>  |u| < lim (s_p <= 6)
     half_g = (1 << g) >> 1
+    prev_h = 0
     px0 = np.int64(0)
     py0 = np.int64(0)
     t = 0
@@ -777,7 +813,11 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
             pdy = dy
             db = _bucket(max(abs(dx), abs(dy)))
             dbk = db
-            hx, hy, gx, gy = _dec_handles(ds, inp, probs, layout, b, db, dx, dy)
+            hx, hy, gx, gy, sh = _dec_handles(ds, inp, probs, layout, b, db, dx, dy, prev_h)
+            if sh < 0:
+                return (E_POINT, j, 0, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy, cap_value)
+            if b == 0:
+                prev_h = sh
             cax = ax + _rnd3(dx) + hx
             cay = ay + _rnd3(dy) + hy
             cbx = nx - _rnd3(dx) + gx

@@ -15,6 +15,7 @@ KMAX = 40
 NB = 12
 PATH_MAX = 32
 LIMIT = 1 << 30
+MAX_HANDLE_SHIFT = 5
 
 
 class Bit:
@@ -242,14 +243,28 @@ def g_contexts(version, h1, h2):
     return hb, hb
 
 
-def put_handles(enc, mo, version, b, db, d, h, r):
+def shift_model(mo, prev_h, db):
+    """Version 4's model of a segment's handle shift: by the previous shift and the chord."""
+    return mo.int("handle shift", prev_h, 0 if db <= 7 else (1 if db <= 9 else 2))
+
+
+def put_handles(enc, mo, version, b, db, d, h, r, prev_h=0):
     """The residuals h = Ca - A - rnd3(d) and r = Cb - N + rnd3(d) of one segment: as they
-    are (version 2), or in the chord's frame with r.a after -h.a / 2 (version 3)."""
+    are (version 2), or in the chord's frame with r.a after -h.a / 2 (version 3); version 4
+    first codes the shift sh of a non-border segment, the largest <= MAX_HANDLE_SHIFT that
+    divides all four frame terms, then the terms divided by 2**sh. Returns sh."""
     (h1, h2), (g1, g2) = h, r
+    sh = 0
     if version >= 3:
         frame = chord_frame(*d)
         h1, h2 = to_frame(frame, *h)
         g1, g2 = to_frame(frame, *r)
+        if version >= 4 and not b:
+            low = h1 | h2 | g1 | g2
+            while sh < MAX_HANDLE_SHIFT and not (low >> sh) & 1:
+                sh += 1
+            shift_model(mo, prev_h, db).put_uint(enc, sh)
+            h1, h2, g1, g2 = h1 >> sh, h2 >> sh, g1 >> sh, g2 >> sh
         g1 += (h1 + 1) >> 1
     mo.int("hx", b, db).put(enc, h1)
     if b:
@@ -260,10 +275,16 @@ def put_handles(enc, mo, version, b, db, d, h, r):
         c1, c2 = g_contexts(version, h1, h2)
         mo.int("gx", c1, db).put(enc, g1)
         mo.int("gy", c2, db).put(enc, g2)
+    return sh
 
 
-def get_handles(dec, mo, version, b, db, d):
-    """The inverse of put_handles: (h, r)."""
+def get_handles(dec, mo, version, b, db, d, prev_h=0):
+    """The inverse of put_handles: (h, r, sh); sh is None for a shift beyond the largest."""
+    sh = 0
+    if version >= 4 and not b:
+        sh = shift_model(mo, prev_h, db).get_uint(dec)
+        if sh > MAX_HANDLE_SHIFT:
+            return None, None, None
     h1 = mo.int("hx", b, db).get(dec)
     if b:
         h2, g1, g2 = (mo.int(name, "border").get(dec) for name in ("hy", "gx", "gy"))
@@ -274,9 +295,10 @@ def get_handles(dec, mo, version, b, db, d):
         g2 = mo.int("gy", c2, db).get(dec)
     if version >= 3:
         g1 -= (h1 + 1) >> 1
+        h1, h2, g1, g2 = h1 << sh, h2 << sh, g1 << sh, g2 << sh
         frame = chord_frame(*d)
-        return from_frame(frame, h1, h2), from_frame(frame, g1, g2)
-    return (h1, h2), (g1, g2)
+        return from_frame(frame, h1, h2), from_frame(frame, g1, g2), sh
+    return (h1, h2), (g1, g2), sh
 
 
 def level_pred(levels, lev: int, shift: int) -> int:
@@ -330,7 +352,7 @@ def get_coord(dec, model_fine, model_coarse, on, old, g):
 def encode_channel(ch: dict) -> bytes:
     """ch: level, nseg, parent, chains (per contour, its 3 n stored points on the point grid),
     border (per segment), g, cap_contour, cap_band, cap_xy (cap grid), cap_value (value grid),
-    s_p, s_c, s_v, levels, base_band; and ``version`` (2 or 3, default 3): whose layout.
+    s_p, s_c, s_v, levels, base_band; and ``version`` (2, 3 or 4, default 4): whose layout.
 
     It codes whatever it is given, lies included (segment counts that do not fit the chains,
     levels or cap contours out of range: (0, 0) and 0 stand in for what does not exist), so
@@ -338,7 +360,7 @@ def encode_channel(ch: dict) -> bytes:
     """
     enc, mo = Encoder(), Models()
     level, parent, g = ch["level"], ch["parent"], ch["g"]
-    version = ch.get("version", 3)
+    version = ch.get("version", 4)
     c = len(level)
     prev_rank = 0
     for k in range(c):
@@ -356,6 +378,7 @@ def encode_channel(ch: dict) -> bytes:
         mo.int("nseg").put_uint(enc, ch["nseg"][k] - 1)
 
     prev0 = (0, 0)
+    prev_h = 0
     s0 = 0
     for k in range(c):
         chain, n = ch["chains"][k], ch["nseg"][k]
@@ -391,7 +414,9 @@ def encode_channel(ch: dict) -> bytes:
             db = dbk = bucket(max(abs(dx), abs(dy)))
             h = (pts(3 * i + 1)[0] - ax - rnd3(dx), pts(3 * i + 1)[1] - ay - rnd3(dy))
             r = (pts(3 * i + 2)[0] - nx + rnd3(dx), pts(3 * i + 2)[1] - ny + rnd3(dy))
-            put_handles(enc, mo, version, b, db, (dx, dy), h, r)
+            sh = put_handles(enc, mo, version, b, db, (dx, dy), h, r, prev_h)
+            if not b:
+                prev_h = sh
         s0 += n
 
     s_p, s_c, s_v = ch["s_p"], ch["s_c"], ch["s_v"]
@@ -421,7 +446,7 @@ class Invalid(Exception):
     """A decoded value breaks a rule; args: (what, entry)."""
 
 
-def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, version=3) -> dict:
+def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, version=4) -> dict:
     """The inverse of encode_channel: a dict of lists, points in 1/64 px as (x, y) tuples per
     contour with the closing point, caps in 1/64 units. Raises Invalid for a broken rule."""
     dec, mo = Decoder(data), Models()
@@ -458,6 +483,7 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, ve
     lim = LIMIT >> s_p
     chains, border = [], []
     prev0 = (0, 0)
+    prev_h = 0
     for j in range(c):
         n = nseg[j]
         f = get_flag4(dec, mo, 4) if g else 0
@@ -487,7 +513,12 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, ve
             dx, dy = nx - ax, ny - ay
             pd = (dx, dy)
             db = dbk = bucket(max(abs(dx), abs(dy)))
-            (hx, hy), (gx, gy) = get_handles(dec, mo, version, b, db, (dx, dy))
+            h, r, sh = get_handles(dec, mo, version, b, db, (dx, dy), prev_h)
+            if sh is None:
+                raise Invalid("point", j)
+            if not b:
+                prev_h = sh
+            (hx, hy), (gx, gy) = h, r
             ca = (ax + rnd3(dx) + hx, ay + rnd3(dy) + hy)
             cb = (nx - rnd3(dx) + gx, ny - rnd3(dy) + gy)
             if max(abs(ca[0]), abs(ca[1]), abs(cb[0]), abs(cb[1])) >= lim:

@@ -28,6 +28,14 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    (P - Cb + Ca - P) keeping their lengths; the change is kept only if both adjacent
    segments still pass both tests.
 
+4. Coarse handles (``coarsen`` > 0, the encoder's "quantisation inside the ribbon"): each
+   segment of more than one edge gets its handles moved onto the coarsest grid of the
+   file's handle coding (format/isoph.py: the residual against the straight segment's
+   thirds, in the chord's frame, a multiple of 2**sh / QUANT px, sh = coarsen .. 1, the
+   anchors rounded to 1/QUANT px) on which it still passes both tests (reparameterised
+   first, as snapping does); a segment no grid fits keeps its handles. The file then codes
+   those residuals divided by 2**sh.
+
 Closed polylines are rotated to start at their sharpest turn and closed by repeating that
 point, then fitted as open ones; their closing joint is snapped last.
 """
@@ -38,6 +46,9 @@ import math
 
 import numpy as np
 from numba import njit
+
+from .entropy import _frame, _from_frame, _rnd3, _round, _to_frame
+from .entropy_ref import chord_frame, from_frame, rnd, rnd3, to_frame
 
 # Fits per span (one least-squares fit, then Gauss-Newton steps), and Newton
 # reparameterisation steps when a snapped segment is checked.
@@ -56,6 +67,9 @@ MAX_SAMPLES = 32
 # in the least-squares fit and towards the current controls in the Gauss-Newton steps: it
 # makes spans with few inner points well posed and is negligible otherwise.
 RIDGE = 1e-6
+# The file's point grid (1/QUANT px; encoder/__init__.py and format/isoph.py), on which
+# _coarsen rounds the anchors and builds the handles' coarser grids.
+QUANT = 64.0
 
 
 # ---------------------------------------------------------------------------------------
@@ -510,8 +524,53 @@ def _snap_joint(q, ed, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _coarse_handles(q, i, j, cin, shift, cout):
+    """The handles cin of the span i..j moved onto the coarse grid of the file's handle
+    coding (format/isoph.py): residuals against the straight segment's thirds, turned into
+    the chord's frame, rounded to multiples of 2**shift units of 1/QUANT px, turned back;
+    the anchors are the span's end points rounded to 1/QUANT px. Writes cout[0:4]."""
+    ax = _round(q[i, 0] * QUANT)
+    ay = _round(q[i, 1] * QUANT)
+    nx = _round(q[j, 0] * QUANT)
+    ny = _round(q[j, 1] * QUANT)
+    dx = nx - ax
+    dy = ny - ay
+    sg, p, qq = _frame(dx, dy)
+    tx = _rnd3(dx)
+    ty = _rnd3(dy)
+    half = np.int64(1) << (shift - 1)
+    ha, hc = _to_frame(sg, p, qq, _round(cin[0] * QUANT) - ax - tx, _round(cin[1] * QUANT) - ay - ty)
+    ra, rc = _to_frame(sg, p, qq, _round(cin[2] * QUANT) - nx + tx, _round(cin[3] * QUANT) - ny + ty)
+    hx, hy = _from_frame(sg, p, qq, ((ha + half) >> shift) << shift, ((hc + half) >> shift) << shift)
+    rx, ry = _from_frame(sg, p, qq, ((ra + half) >> shift) << shift, ((rc + half) >> shift) << shift)
+    cout[0] = (ax + tx + hx) / QUANT
+    cout[1] = (ay + ty + hy) / QUANT
+    cout[2] = (nx - tx + rx) / QUANT
+    cout[3] = (ny - ty + ry) / QUANT
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca):
+    """Each segment's handles on the coarsest grid (shift max_shift down to 1) on which the
+    segment still fits its span (_check_fixed); segments of one edge keep theirs."""
+    for g in range(m):
+        i = ends[g]
+        j = ends[g + 1]
+        if j - i < 2:
+            continue
+        for shift in range(max_shift, 0, -1):
+            _coarse_handles(q, i, j, ctrl[g], shift, ca)
+            for k in range(i, j + 1):
+                ut[k] = u[k]
+            if _check_fixed(q, ed, w, i, j, ut, ca):
+                for k in range(4):
+                    ctrl[g, k] = ca[k]
+                break
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _fit_open(
-    q, ed, w, n, closed, cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
+    q, ed, w, n, closed, cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb, coarsen
 ):
     """Fit q[:n] (already closed by repetition when `closed`); fills ends[0:m+1] and
     ctrl[0:m]; returns m."""
@@ -565,6 +624,8 @@ def _fit_open(
         # interior joints in order, then the closing joint of a closed chain
         for a in range(m - 1 + (1 if closed else 0)):
             _snap_joint(q, ed, w, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
+    if coarsen > 0:
+        _coarsen(q, ed, w, ends, ctrl, m, u, ut, coarsen, ca)
     return m
 
 
@@ -590,8 +651,9 @@ def _start_index(pts, o, n):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def fit_many_kernel(points, tol, offsets, closed, cos_snap):
-    """Fit every polyline; returns (chains (P, 2), chain_offsets (K+1,) int64)."""
+def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen=0):
+    """Fit every polyline; returns (chains (P, 2), chain_offsets (K+1,) int64). coarsen > 0
+    puts the handles on the file's coarse grids, shifts up to coarsen (_coarsen)."""
     npoly = offsets.shape[0] - 1
     nmax = 0
     for p in range(npoly):
@@ -642,7 +704,7 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap):
             wq[k] = 1.0 / (tq[k] * tq[k])
         _edges(q, tq, nn, ed)
         m = _fit_open(
-            q, ed, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb
+            q, ed, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb, coarsen
         )
         need = used + 1 + 3 * m
         if need > cap:
@@ -870,7 +932,35 @@ def _snap_joint_ref(q, tol, ends, ctrl, u, a, b, cos_snap):
         ctrl[g] = cg
 
 
-def fit_open_ref(q, tol, closed, cos_snap):
+def _coarse_handles_ref(q, i, j, c, shift):
+    """Twin of _coarse_handles, with format/isoph.py's plain frame (entropy_ref)."""
+    a = [rnd(q[i, 0] * QUANT), rnd(q[i, 1] * QUANT)]
+    n = [rnd(q[j, 0] * QUANT), rnd(q[j, 1] * QUANT)]
+    d = [n[0] - a[0], n[1] - a[1]]
+    frame = chord_frame(d[0], d[1])
+    t = [rnd3(d[0]), rnd3(d[1])]
+    h = to_frame(frame, rnd(c[0] * QUANT) - a[0] - t[0], rnd(c[1] * QUANT) - a[1] - t[1])
+    r = to_frame(frame, rnd(c[2] * QUANT) - n[0] + t[0], rnd(c[3] * QUANT) - n[1] + t[1])
+    half = 1 << (shift - 1)
+    hx, hy = from_frame(frame, *[((v + half) >> shift) << shift for v in h])
+    rx, ry = from_frame(frame, *[((v + half) >> shift) << shift for v in r])
+    return np.array([(a[0] + t[0] + hx) / QUANT, (a[1] + t[1] + hy) / QUANT,
+                     (n[0] - t[0] + rx) / QUANT, (n[1] - t[1] + ry) / QUANT])
+
+
+def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
+    for g in range(len(ctrl)):
+        i, j = ends[g], ends[g + 1]
+        if j - i < 2:
+            continue
+        for shift in range(max_shift, 0, -1):
+            cg = _coarse_handles_ref(q, i, j, ctrl[g], shift)
+            if _check_fixed_ref(q, tol, i, j, u.copy(), cg):
+                ctrl[g] = cg
+                break
+
+
+def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
     """(ends, ctrl) of the chain fitted to q (closed by repetition when `closed`)."""
     n = len(q)
     cum = np.concatenate([[0.0], np.cumsum(np.sqrt(np.sum(np.diff(q, axis=0) ** 2, axis=1)))])
@@ -908,10 +998,12 @@ def fit_open_ref(q, tol, closed, cos_snap):
             _snap_joint_ref(q, tol, ends, ctrl, u, a, a + 1, cos_snap)
         if closed:
             _snap_joint_ref(q, tol, ends, ctrl, u, m - 1, 0, cos_snap)
+    if coarsen > 0:
+        _coarsen_ref(q, tol, ends, ctrl, u, coarsen)
     return ends, ctrl
 
 
-def fit_polyline_ref(points, tol, closed, cos_snap):
+def fit_polyline_ref(points, tol, closed, cos_snap, coarsen=0):
     """Reference twin of fit_many_kernel for one polyline: the (1+3m, 2) chain."""
     points = np.asarray(points, dtype=np.float64)
     tol = np.asarray(tol, dtype=np.float64)
@@ -928,7 +1020,7 @@ def fit_polyline_ref(points, tol, closed, cos_snap):
         t = np.concatenate([t, t[:1]])
     else:
         q, t = points.copy(), tol.copy()
-    ends, ctrl = fit_open_ref(q, t, closed, cos_snap)
+    ends, ctrl = fit_open_ref(q, t, closed, cos_snap, coarsen)
     rows = [q[0]]
     for g, c in enumerate(ctrl):
         rows += [c[:2], c[2:], q[ends[g + 1]]]

@@ -60,7 +60,7 @@ def _check_points(points, tol):
     return points, tol
 
 
-def fit_polyline(points, tol, closed, snap=20.0):
+def fit_polyline(points, tol, closed, snap=20.0, coarsen=0):
     """Fit a Bezier chain with few segments inside the error ribbon of a polyline.
 
     Parameters
@@ -109,11 +109,11 @@ def fit_polyline(points, tol, closed, snap=20.0):
         raise ValueError(f"a {'closed' if closed else 'open'} polyline needs at least "
                          f"{3 if closed else 2} points, got {n}")
     chains, _ = fit_many_kernel(points, tol, np.array([0, n], np.int64),
-                                np.array([closed]), _cos_snap(snap))
+                                np.array([closed]), _cos_snap(snap), int(coarsen))
     return chains
 
 
-def fit_many(points, tol, offsets, closed, snap=20.0):
+def fit_many(points, tol, offsets, closed, snap=20.0, coarsen=0):
     """Fit many polylines at once; equal to :func:`fit_polyline` on each.
 
     Large batches are fitted in parallel: groups of consecutive polylines with about equal
@@ -157,8 +157,9 @@ def fit_many(points, tol, offsets, closed, snap=20.0):
         raise ValueError("every open polyline needs >= 2 points and every closed one >= 3")
     cos_snap = _cos_snap(snap)
     workers = _workers()
+    coarsen = int(coarsen)
     if workers < 2 or points.shape[0] < PARALLEL_POINTS:
-        return fit_many_kernel(points, tol, offsets, closed, cos_snap)
+        return fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen)
     # groups of consecutive polylines, about equal in points, several per thread so that
     # a thread that finishes early takes another
     cuts = np.searchsorted(offsets, np.linspace(0, points.shape[0], 4 * workers + 1)[1:-1])
@@ -167,7 +168,7 @@ def fit_many(points, tol, offsets, closed, snap=20.0):
     def part(k):
         o = offsets[bounds[k] : bounds[k + 1] + 1]
         return fit_many_kernel(points[o[0] : o[-1]], tol[o[0] : o[-1]], o - o[0],
-                               closed[bounds[k] : bounds[k + 1]], cos_snap)
+                               closed[bounds[k] : bounds[k + 1]], cos_snap, coarsen)
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
         parts = list(pool.map(part, range(len(bounds) - 1)))
