@@ -218,8 +218,8 @@ and cap values ``>> s_v`` likewise. ``bucket(v)`` is the bit length of |v|, at m
    cc = -1), in a model chosen by the band's relation (0, 1 or other).
 
 The exact contexts and the order of every bit are those of the two implementations, which
-the tests hold to the same bytes. On the corpus photographs this coding takes 40-50 bits a
-segment, everything included: 0.71 of the column layout under zlib (benchmarks/coding.py and
+the tests hold to the same bytes. On the corpus photographs this coding takes about 36 bits a
+segment, everything included: 0.57 of the column layout under zlib (benchmarks/coding.py and
 benchmarks/results/coding.md, which measure each step and stream).
 
 Version 3
@@ -412,7 +412,7 @@ def dumps(vi: VectorImage, compression: str = DEFAULT_COMPRESSION) -> bytes:
     ----------
     vi : VectorImage
     compression : {"range", "zlib", "lzma", "none"}
-        "range" (the default) range-codes predicted values: 0.71 of "zlib" on photographs,
+        "range" (the default) range-codes predicted values: 0.57 of "zlib" on photographs,
         writing about 2.5 and reading about 1 microsecond a segment; "zlib", "lzma" and
         "none" store the column layout (version 1's), "zlib" faster both ways.
 
