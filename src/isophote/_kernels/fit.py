@@ -32,9 +32,9 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    segment of more than one edge gets its handles moved onto the coarsest grid of the
    file's handle coding (format/isoph.py: the residual against the straight segment's
    thirds, in the chord's frame, a multiple of 2**sh / QUANT px, sh = coarsen .. 1, the
-   anchors rounded to 1/QUANT px) on which it still passes both tests (reparameterised
-   first, as snapping does); a segment no grid fits keeps its handles. The file then codes
-   those residuals divided by 2**sh.
+   anchors rounded to 1/QUANT px) on which it still passes both tests (after one Newton
+   reparameterisation step: the handles move little); a segment no grid fits keeps its
+   handles. The file then codes those residuals divided by 2**sh.
 
 Closed polylines are rotated to start at their sharpest turn and closed by repeating that
 point, then fitted as open ones; their closing joint is snapped last.
@@ -54,6 +54,9 @@ from .entropy_ref import chord_frame, from_frame, rnd, rnd3, to_frame
 # reparameterisation steps when a snapped segment is checked.
 ITERATIONS = 3
 NEWTON_STEPS = 2
+# Newton reparameterisation steps when a segment's coarse handles are checked: the handles
+# move little, so the fitted parameters are close already.
+COARSEN_STEPS = 1
 # A span whose worst point is still farther than GIVE_UP[it] tolerances from its curve after
 # fit `it` is rejected at once: later steps rarely rescue fits that bad (each step cuts the
 # error several times over), and rejecting early keeps the search cheap.
@@ -462,14 +465,15 @@ def _fit_span(q, ed, w, cum, i, j, u, c, work):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _check_fixed(q, ed, w, i, j, u, c):
-    """Does the cubic with controls c still fit the span i..j? Reparameterises u first."""
+def _check_fixed(q, ed, w, i, j, u, c, steps=NEWTON_STEPS):
+    """Does the cubic with controls c still fit the span i..j? Reparameterises u first
+    (``steps`` Newton steps)."""
     # a joint's point is shared by two segments: its parameter is 0 in one, 1 in the other
     u[i] = 0.0
     u[j] = 1.0
     worst = 0.0
-    for it in range(NEWTON_STEPS):
-        worst = _newton(q, w, i, j, u, c, 1.0 if it == NEWTON_STEPS - 1 else np.inf)
+    for it in range(steps):
+        worst = _newton(q, w, i, j, u, c, 1.0 if it == steps - 1 else np.inf)
     if worst > 1.0:
         return False
     return _bulge_ok(q, ed, i, j, u, c)
@@ -550,9 +554,10 @@ def _coarse_handles(q, i, j, cin, shift, cout):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca):
+def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca, cb):
     """Each segment's handles on the coarsest grid (shift max_shift down to 1) on which the
-    segment still fits its span (_check_fixed); segments of one edge keep theirs."""
+    segment still fits its span (_check_fixed); segments of one edge keep theirs. A grid
+    that rounds the handles as the coarser one before did is not checked again."""
     for g in range(m):
         i = ends[g]
         j = ends[g + 1]
@@ -560,9 +565,13 @@ def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca):
             continue
         for shift in range(max_shift, 0, -1):
             _coarse_handles(q, i, j, ctrl[g], shift, ca)
+            if shift < max_shift and ca[0] == cb[0] and ca[1] == cb[1] and ca[2] == cb[2] and ca[3] == cb[3]:
+                continue
+            for k in range(4):
+                cb[k] = ca[k]
             for k in range(i, j + 1):
                 ut[k] = u[k]
-            if _check_fixed(q, ed, w, i, j, ut, ca):
+            if _check_fixed(q, ed, w, i, j, ut, ca, COARSEN_STEPS):
                 for k in range(4):
                     ctrl[g, k] = ca[k]
                 break
@@ -625,7 +634,7 @@ def _fit_open(
         for a in range(m - 1 + (1 if closed else 0)):
             _snap_joint(q, ed, w, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
     if coarsen > 0:
-        _coarsen(q, ed, w, ends, ctrl, m, u, ut, coarsen, ca)
+        _coarsen(q, ed, w, ends, ctrl, m, u, ut, coarsen, ca, cb)
     return m
 
 
@@ -897,9 +906,9 @@ def _fit_span_ref(q, tol, cum, i, j, u):
     return None
 
 
-def _check_fixed_ref(q, tol, i, j, u, c):
+def _check_fixed_ref(q, tol, i, j, u, c, steps=NEWTON_STEPS):
     u[i], u[j] = 0.0, 1.0
-    for _ in range(NEWTON_STEPS):
+    for _ in range(steps):
         _newton_ref(q, i, j, u, c)
     return _point_err_ref(q, tol, i, j, u, c) <= 1.0 and _bulge_ok_ref(q, tol, i, j, u, c)
 
@@ -953,9 +962,13 @@ def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
         i, j = ends[g], ends[g + 1]
         if j - i < 2:
             continue
+        tried = None
         for shift in range(max_shift, 0, -1):
             cg = _coarse_handles_ref(q, i, j, ctrl[g], shift)
-            if _check_fixed_ref(q, tol, i, j, u.copy(), cg):
+            if tried is not None and np.array_equal(cg, tried):
+                continue  # rounds as the coarser grid did: that one failed
+            tried = cg
+            if _check_fixed_ref(q, tol, i, j, u.copy(), cg, COARSEN_STEPS):
                 ctrl[g] = cg
                 break
 
