@@ -46,8 +46,11 @@ from numba import njit
 # corner offsets (dr, dc) and edge -> (corner a, corner b)
 _CDR = np.array([0, 0, 1, 1], np.int64)
 _CDC = np.array([0, 1, 1, 0], np.int64)
-# Most Newton (or bisection) steps that place a crossing on its edge's cubic (_cubic_t).
+# Most Newton (or bisection) steps that place a crossing on its edge's cubic (_cubic_t), and
+# the step below which it stops: Newton converges quadratically, so after a step of 1e-7
+# (of the edge, half a pixel) the crossing is within about 1e-14 of the root.
 CUBIC_ITERATIONS = 30
+CUBIC_STEP = 1e-7
 
 
 @njit(cache=True, nogil=True)
@@ -322,14 +325,6 @@ def _grad_at(grid, r, c):
     return math.hypot(gx, gy)
 
 
-@njit(cache=True, nogil=True)
-def _on_pad(i, hp, wp):
-    """Is flat padded index i on the padding ring?"""
-    r = i // wp
-    c = i - r * wp
-    return r == 0 or c == 0 or r == hp - 1 or c == wp - 1
-
-
 @njit(cache=True, nogil=True, error_model="numpy")
 def _cubic_t(vm, v0, v1, v2, t):
     """Where the monotone cubic through v0 (at 0) and v1 (at 1) reaches the value that the
@@ -364,7 +359,7 @@ def _cubic_t(vm, v0, v1, v2, t):
         xn = x - g / dg if dg > 0.0 else 0.5 * (lo + hi)
         if not (lo < xn < hi):
             xn = 0.5 * (lo + hi)
-        if abs(xn - x) <= 1e-12:
+        if abs(xn - x) <= CUBIC_STEP:
             return xn
         x = xn
     return x
@@ -549,8 +544,12 @@ def march_loops(vals, band, levels, grid, grid_eps):
                 step = ab - b
                 v0 = vals_f[b]
                 v1 = vals_f[ab]
-                vm = vals_f[b - step] if not _on_pad(b - step, hp, wp) else v0
-                v2 = vals_f[ab + step] if not _on_pad(ab + step, hp, wp) else v1
+                r2 = 2 * rb - ra  # the sample before the below one, and after the above one
+                c2 = 2 * cb - ca
+                vm = vals_f[b - step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v0
+                r2 = 2 * ra - rb
+                c2 = 2 * ca - cb
+                v2 = vals_f[ab + step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v1
                 tt = _cubic_t(vm, v0, v1, v2, tt)
             # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
             points[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
@@ -656,7 +655,7 @@ def cubic_t_ref(vm, v0, v1, v2, t):
         with np.errstate(divide="ignore", invalid="ignore"):
             xn = np.where(dg > 0.0, xk - g / np.where(dg > 0.0, dg, 1.0), 0.5 * (lo[k] + hi[k]))
         xn = np.where((lo[k] < xn) & (xn < hi[k]), xn, 0.5 * (lo[k] + hi[k]))
-        done = np.abs(xn - xk) <= 1e-12
+        done = np.abs(xn - xk) <= CUBIC_STEP
         out[k[done]] = xn[done]
         live[k[done]] = False
         x[k] = xn
