@@ -26,7 +26,7 @@ from .errors import OptionError
 #            within 0.5 eps. 4.31 x PNG, 45.6 dB, SSIMULACRA2 90.4, FLIP 0.021; 248k segments.
 #            (The paper's range and pruning within 1 eps, format v3: 5.48 x PNG, 45.0 dB, 89.2.)
 #   balanced high's noise model, range and pruning with Y every 6 and U, V every 5: fewer
-#            bytes than paper and more faithful on PSNR and SSIMULACRA2: 1.86 x PNG, 41.4 dB,
+#            bytes than paper and more faithful on PSNR and SSIMULACRA2: 1.87 x PNG, 41.4 dB,
 #            SSIMULACRA2 82.1, FLIP 0.035; 96k segments; 1.2-1.5 x paper's encode time.
 #            Steps measured with high's other settings (format v3 x PNG / dB / SSIMULACRA2): Y 5 U/V 5
 #            3.01 / 42.1 / 84.2; Y 6 U/V 6 2.42 / 41.0 / 81.4; Y 6.5 U/V 6 2.26 / 40.5 / 79.7;
@@ -39,7 +39,7 @@ from .errors import OptionError
 # lifts it to 90.5. Rocket stays near 85 whatever the levels and noise.
 #
 # The default is "balanced": on the corpus mean it is smaller than "paper" and better on every
-# measure (benchmarks/results/report.md: 1.86 against 2.18 x PNG, 41.40 against 40.81 dB,
+# measure (benchmarks/results/report.md: 1.87 against 2.18 x PNG, 41.40 against 40.81 dB,
 # SSIMULACRA2 82.1 against 72.8, FLIP 0.035 against 0.038), and it renders faster at 1x,
 # for 1.2-1.5 x paper's encode time. isophote's first use is a master that every delivery
 # size is rendered from, where fidelity per byte comes first. Camera, its worst case, gets a
