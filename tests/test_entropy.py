@@ -260,7 +260,8 @@ def decode_both(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, versi
 
 STATUS_NAMES = {E.E_RANK: "rank", E.E_PARENT: "parent", E.E_LEVEL: "level", E.E_NSEG: "nseg",
                 E.E_NSEG_SHORT: "nseg short", E.E_POINT: "point", E.E_CAP_CONTOUR: "cap contour",
-                E.E_CAP_XY: "cap xy", E.E_CAP_VALUE: "cap value", E.E_SHORT: "short", E.E_LONG: "long"}
+                E.E_CAP_XY: "cap xy", E.E_CAP_VALUE: "cap value", E.E_SHORT: "short", E.E_LONG: "long",
+                E.E_SHIFT: "handle shift"}
 
 
 @settings(max_examples=200, deadline=None, derandomize=True, database=None)
@@ -280,6 +281,32 @@ def test_channel_decoder_on_garbage_matches_the_reference(data, c, extra, k, g, 
     assert out[3].tolist() == ref["level"] and out[5].tolist() == ref["parent"]
     assert out[6].tolist() == [list(p) for chain in ref["chains"] for p in chain]
     assert out[8].tolist() == ref["cap_contour"] and out[11].tolist() == ref["cap_value"]
+
+
+def test_handle_shift_beyond_the_largest_is_refused(monkeypatch):
+    """A version 4 channel whose handle shift is above MAX_HANDLE_SHIFT (written by the
+    reference coder with its limit raised): both decoders stop at the handle-shift rule,
+    and format/isoph.py words it."""
+    from dataclasses import replace
+
+    base = random_image(7, "grey", n_contours=3).channels[0]
+    # anchors on multiples of 3/64 px and handles at the chords' thirds: every handle
+    # residual is 0, which every shift divides, so the coder writes its largest shift
+    pts = np.round(base.points * 64 / 3) * 3 / 64
+    for o0, o1 in zip(base.offsets[:-1], base.offsets[1:]):
+        c = pts[o0:o1]  # one closed chain: P0, Ca, Cb, P1, ..., Pm = P0
+        a, n = c[0:-1:3].copy(), c[3::3].copy()
+        c[1::3], c[2::3] = a + (n - a) / 3, n - (n - a) / 3
+    ch = isoph._checked_channel(replace(base, points=pts, border=np.zeros_like(base.border)))
+    info = ch.info
+    monkeypatch.setattr(R, "MAX_HANDLE_SHIFT", E.MAX_HANDLE_SHIFT + 1)
+    fields = ref_fields(ch, info, 4)
+    coded = R.encode_channel(fields)
+    monkeypatch.setattr(R, "MAX_HANDLE_SHIFT", E.MAX_HANDLE_SHIFT)
+    out, ref = decode_both(coded, info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c,
+                           info.s_v, info.levels.tolist(), info.base_band, 4)
+    assert out[0] == E.E_SHIFT and ref == "handle shift"
+    assert isoph._RANGE_ERRORS[E.E_SHIFT].format(where=out[1]) == f"a handle shift in contour {out[1]} is above 5"
 
 
 @pytest.mark.parametrize("version", VERSIONS)

@@ -93,6 +93,7 @@ E_CAP_XY = 8
 E_CAP_VALUE = 9
 E_SHORT = 10
 E_LONG = 11
+E_SHIFT = 12
 
 
 # =============================================================================================
@@ -815,7 +816,7 @@ def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
             dbk = db
             hx, hy, gx, gy, sh = _dec_handles(ds, inp, probs, layout, b, db, dx, dy, prev_h)
             if sh < 0:
-                return (E_POINT, j, 0, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy, cap_value)
+                return (E_SHIFT, j, 0, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy, cap_value)
             if b == 0:
                 prev_h = sh
             cax = ax + _rnd3(dx) + hx

@@ -515,7 +515,7 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, ve
             db = dbk = bucket(max(abs(dx), abs(dy)))
             h, r, sh = get_handles(dec, mo, version, b, db, (dx, dy), prev_h)
             if sh is None:
-                raise Invalid("point", j)
+                raise Invalid("handle shift", j)
             if not b:
                 prev_h = sh
             (hx, hy), (gx, gy) = h, r

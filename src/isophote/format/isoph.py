@@ -268,8 +268,8 @@ size; levels not finite and strictly increasing; a bad tone curve or cap ramp; a
 outside [0, L]; a payload that does not decompress to exactly raw_size bytes, or range-coded data that
 ends early or has bytes left over; a contour level outside [0, L); segment counts that do
 not add up to S; a parent outside [-1, C), a parent candidate that does not exist, or parents
-that form a cycle; a cap band outside [0, L], a cap contour outside [-1, C); a coordinate or
-cap value beyond its limit; non-zero padding bits. All header checks come before the payload
+that form a cycle; a cap band outside [0, L], a cap contour outside [-1, C); a handle shift
+above MAX_HANDLE_SHIFT; a coordinate or cap value beyond its limit; non-zero padding bits. All header checks come before the payload
 is decompressed or decoded, so the work on any file is bounded by its size. CRC-32 catches
 every error burst of up to 32 bits, so any corrupted byte is reported; the checks behind it
 make crafted files safe too.
@@ -1296,6 +1296,7 @@ _RANGE_ERRORS = {
     entropy.E_CAP_VALUE: "cap value {where} lies beyond the format's limit",
     entropy.E_SHORT: "range-coded data ends early (truncated or corrupted)",
     entropy.E_LONG: "range-coded data has bytes left over (corrupted)",
+    entropy.E_SHIFT: f"a handle shift in contour {{where}} is above {entropy.MAX_HANDLE_SHIFT}",
 }
 
 
