@@ -528,11 +528,11 @@ def _snap_joint(q, ed, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _coarse_handles(q, i, j, cin, shift, cout):
-    """The handles cin of the span i..j moved onto the coarse grid of the file's handle
-    coding (format/isoph.py): residuals against the straight segment's thirds, turned into
-    the chord's frame, rounded to multiples of 2**shift units of 1/QUANT px, turned back;
-    the anchors are the span's end points rounded to 1/QUANT px. Writes cout[0:4]."""
+def _handle_frame(q, i, j, c):
+    """What the file's handle coding (format/isoph.py) makes of the span i..j's handles c:
+    the anchors rounded to 1/QUANT px (ax, ay, nx, ny), the thirds of their chord (tx, ty),
+    the chord frame (sg, p, qq) and the handles' residuals in it (ha, hc, ra, rc), in
+    1/QUANT px units."""
     ax = _round(q[i, 0] * QUANT)
     ay = _round(q[i, 1] * QUANT)
     nx = _round(q[j, 0] * QUANT)
@@ -542,33 +542,45 @@ def _coarse_handles(q, i, j, cin, shift, cout):
     sg, p, qq = _frame(dx, dy)
     tx = _rnd3(dx)
     ty = _rnd3(dy)
-    half = np.int64(1) << (shift - 1)
-    ha, hc = _to_frame(sg, p, qq, _round(cin[0] * QUANT) - ax - tx, _round(cin[1] * QUANT) - ay - ty)
-    ra, rc = _to_frame(sg, p, qq, _round(cin[2] * QUANT) - nx + tx, _round(cin[3] * QUANT) - ny + ty)
-    hx, hy = _from_frame(sg, p, qq, ((ha + half) >> shift) << shift, ((hc + half) >> shift) << shift)
-    rx, ry = _from_frame(sg, p, qq, ((ra + half) >> shift) << shift, ((rc + half) >> shift) << shift)
-    cout[0] = (ax + tx + hx) / QUANT
-    cout[1] = (ay + ty + hy) / QUANT
-    cout[2] = (nx - tx + rx) / QUANT
-    cout[3] = (ny - ty + ry) / QUANT
+    ha, hc = _to_frame(sg, p, qq, _round(c[0] * QUANT) - ax - tx, _round(c[1] * QUANT) - ay - ty)
+    ra, rc = _to_frame(sg, p, qq, _round(c[2] * QUANT) - nx + tx, _round(c[3] * QUANT) - ny + ty)
+    return ax, ay, nx, ny, tx, ty, sg, p, qq, ha, hc, ra, rc
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca, cb):
+def _on_grid(v, shift):
+    """v rounded to the nearest multiple of 2**shift (halves up)."""
+    return ((v + (np.int64(1) << (shift - 1))) >> shift) << shift
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca):
     """Each segment's handles on the coarsest grid (shift max_shift down to 1) on which the
-    segment still fits its span (_check_fixed); segments of one edge keep theirs. A grid
-    that rounds the handles as the coarser one before did is not checked again."""
+    segment still fits its span (_check_fixed); segments of one edge keep theirs. The
+    handles' residuals are rounded to multiples of 2**shift in the chord's frame (see
+    _handle_frame); a grid that rounds them as the coarser one before did is not checked
+    again."""
     for g in range(m):
         i = ends[g]
         j = ends[g + 1]
         if j - i < 2:
             continue
+        ax, ay, nx, ny, tx, ty, sg, p, qq, ha, hc, ra, rc = _handle_frame(q, i, j, ctrl[g])
+        p1 = p2 = p3 = p4 = np.int64(0)  # the previous grid's terms
         for shift in range(max_shift, 0, -1):
-            _coarse_handles(q, i, j, ctrl[g], shift, ca)
-            if shift < max_shift and ca[0] == cb[0] and ca[1] == cb[1] and ca[2] == cb[2] and ca[3] == cb[3]:
+            a1 = _on_grid(ha, shift)
+            c1 = _on_grid(hc, shift)
+            a2 = _on_grid(ra, shift)
+            c2 = _on_grid(rc, shift)
+            if shift < max_shift and a1 == p1 and c1 == p2 and a2 == p3 and c2 == p4:
                 continue
-            for k in range(4):
-                cb[k] = ca[k]
+            p1, p2, p3, p4 = a1, c1, a2, c2
+            hx, hy = _from_frame(sg, p, qq, a1, c1)
+            rx, ry = _from_frame(sg, p, qq, a2, c2)
+            ca[0] = (ax + tx + hx) / QUANT
+            ca[1] = (ay + ty + hy) / QUANT
+            ca[2] = (nx - tx + rx) / QUANT
+            ca[3] = (ny - ty + ry) / QUANT
             for k in range(i, j + 1):
                 ut[k] = u[k]
             if _check_fixed(q, ed, w, i, j, ut, ca, COARSEN_STEPS):
@@ -634,7 +646,7 @@ def _fit_open(
         for a in range(m - 1 + (1 if closed else 0)):
             _snap_joint(q, ed, w, ends, ctrl, u, ut, a, (a + 1) % m, cos_snap, ca, cb)
     if coarsen > 0:
-        _coarsen(q, ed, w, ends, ctrl, m, u, ut, coarsen, ca, cb)
+        _coarsen(q, ed, w, ends, ctrl, m, u, ut, coarsen, ca)
     return m
 
 
@@ -941,33 +953,29 @@ def _snap_joint_ref(q, tol, ends, ctrl, u, a, b, cos_snap):
         ctrl[g] = cg
 
 
-def _coarse_handles_ref(q, i, j, c, shift):
-    """Twin of _coarse_handles, with format/isoph.py's plain frame (entropy_ref)."""
-    a = [rnd(q[i, 0] * QUANT), rnd(q[i, 1] * QUANT)]
-    n = [rnd(q[j, 0] * QUANT), rnd(q[j, 1] * QUANT)]
-    d = [n[0] - a[0], n[1] - a[1]]
-    frame = chord_frame(d[0], d[1])
-    t = [rnd3(d[0]), rnd3(d[1])]
-    h = to_frame(frame, rnd(c[0] * QUANT) - a[0] - t[0], rnd(c[1] * QUANT) - a[1] - t[1])
-    r = to_frame(frame, rnd(c[2] * QUANT) - n[0] + t[0], rnd(c[3] * QUANT) - n[1] + t[1])
-    half = 1 << (shift - 1)
-    hx, hy = from_frame(frame, *[((v + half) >> shift) << shift for v in h])
-    rx, ry = from_frame(frame, *[((v + half) >> shift) << shift for v in r])
-    return np.array([(a[0] + t[0] + hx) / QUANT, (a[1] + t[1] + hy) / QUANT,
-                     (n[0] - t[0] + rx) / QUANT, (n[1] - t[1] + ry) / QUANT])
-
-
 def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
+    """Twin of _coarsen, with format/isoph.py's plain frame (entropy_ref)."""
     for g in range(len(ctrl)):
         i, j = ends[g], ends[g + 1]
         if j - i < 2:
             continue
+        c = ctrl[g]
+        a = [rnd(q[i, 0] * QUANT), rnd(q[i, 1] * QUANT)]
+        n = [rnd(q[j, 0] * QUANT), rnd(q[j, 1] * QUANT)]
+        frame = chord_frame(n[0] - a[0], n[1] - a[1])
+        t = [rnd3(n[0] - a[0]), rnd3(n[1] - a[1])]
+        h = to_frame(frame, rnd(c[0] * QUANT) - a[0] - t[0], rnd(c[1] * QUANT) - a[1] - t[1])
+        r = to_frame(frame, rnd(c[2] * QUANT) - n[0] + t[0], rnd(c[3] * QUANT) - n[1] + t[1])
         tried = None
         for shift in range(max_shift, 0, -1):
-            cg = _coarse_handles_ref(q, i, j, ctrl[g], shift)
-            if tried is not None and np.array_equal(cg, tried):
+            terms = [((v + (1 << (shift - 1))) >> shift) << shift for v in (*h, *r)]
+            if terms == tried:
                 continue  # rounds as the coarser grid did: that one failed
-            tried = cg
+            tried = terms
+            hx, hy = from_frame(frame, terms[0], terms[1])
+            rx, ry = from_frame(frame, terms[2], terms[3])
+            cg = np.array([(a[0] + t[0] + hx) / QUANT, (a[1] + t[1] + hy) / QUANT,
+                           (n[0] - t[0] + rx) / QUANT, (n[1] - t[1] + ry) / QUANT])
             if _check_fixed_ref(q, tol, i, j, u.copy(), cg, COARSEN_STEPS):
                 ctrl[g] = cg
                 break
