@@ -6,10 +6,13 @@ the same floating-point expressions, so they agree to rounding (tests compare th
 
 The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol``:
 
-1. Greedy longest fit. From the current start point i, the span end j grows exponentially
-   (i+2, i+4, i+8, ...) while the span fits, then a binary search between the last fitting
-   and the first failing end keeps the longest end found to fit. A span of one edge always
-   fits (the straight segment through its two points).
+1. Greedy longest fit. From the current start point i, the span end j is first tried g
+   edges on, g the previous segment's edges (FIRST_GUESS for a polyline's first segment):
+   neighbouring segments are alike. While the span fits, j gallops on by g/2, g, 2g, ...
+   edges (at least 1); then a binary search between the last fitting and the first failing
+   end keeps the longest end found to fit. A span of one edge always fits (the straight
+   segment through its two points). Against growing from i+2 by doubling, this tries 24 %
+   fewer spans (astronaut, paper: 4.0 against 5.3 a segment) for 0.6 % more segments.
 2. A span fits when a cubic with the span's end points passes two tests after one of up
    to ``ITERATIONS`` fits of its inner controls. The first fit is Schneider's: least squares
    (weights 1/tol^2) over chord-length parameters. Each later one is a Gauss-Newton step of
@@ -50,6 +53,8 @@ from numba import njit
 from .entropy import _frame, _from_frame, _rnd3, _round, _to_frame
 from .entropy_ref import chord_frame, from_frame, rnd, rnd3, to_frame
 
+# Edges tried first for a polyline's first segment (step 1).
+FIRST_GUESS = 4
 # Fits per span (one least-squares fit, then Gauss-Newton steps), and Newton
 # reparameterisation steps when a snapped segment is checked.
 ITERATIONS = 3
@@ -604,19 +609,24 @@ def _fit_open(
     ends[0] = 0
     i = ends[0]  # read back: a literal 0 here would make numba compile callees twice
     m = 0
+    guess = FIRST_GUESS
     while i < last:
-        # exponential search (hi < 0) then binary search for the longest span that fits;
+        # galloping search (hi < 0) then binary search for the longest span that fits;
         # one call site of _fit_span keeps the compiled code small
         lo = i + 1
         _straight(q, i, lo, cbest)
         hi = -1
-        step = 2
+        step = 0
         while True:
             if hi < 0:
                 if lo >= last:
                     break
-                j = min(i + step, last)
-                step *= 2
+                if step == 0:
+                    j = min(i + guess, last)
+                    step = max(1, guess // 2)
+                else:
+                    j = min(lo + step, last)
+                    step *= 2
             else:
                 if hi - lo <= 1:
                     break
@@ -640,6 +650,7 @@ def _fit_open(
             ctrl[m, k] = cbest[k]
         m += 1
         ends[m] = lo
+        guess = max(2, lo - i)
         i = lo
     if cos_snap < 1.0:
         # interior joints in order, then the closing joint of a closed chain
@@ -987,17 +998,18 @@ def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
     cum = np.concatenate([[0.0], np.cumsum(np.sqrt(np.sum(np.diff(q, axis=0) ** 2, axis=1)))])
     u = np.zeros(n)
     ends, ctrl = [0], []
-    i = 0
+    i, guess = 0, FIRST_GUESS
     while i < n - 1:
         lo, best, ubest = i + 1, _fit_span_ref(q, tol, cum, i, i + 1, u), None
-        hi, step = None, 2
+        # the previous segment's length first, then gallop on by half that, doubling
+        hi, j, step = None, min(i + guess, n - 1), max(1, guess // 2)
         while lo < n - 1:
-            j = min(i + step, n - 1)
             c = _fit_span_ref(q, tol, cum, i, j, u)
             if c is None:
                 hi = j
                 break
             lo, best, ubest = j, c, u[i : j + 1].copy()
+            j = min(lo + step, n - 1)
             step *= 2
         while hi is not None and hi - lo > 1:
             mid = (lo + hi) // 2
@@ -1012,7 +1024,7 @@ def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
             u[i], u[lo] = 0.0, 1.0
         ends.append(lo)
         ctrl.append(best)
-        i = lo
+        i, guess = lo, max(2, lo - i)
     m = len(ctrl)
     if cos_snap < 1.0:
         for a in range(m - 1):

@@ -84,8 +84,9 @@ def fit_polyline(points, tol, closed, snap=20.0, coarsen=0):
 
     Notes
     -----
-    Greedy longest fit: from each joint the next segment is grown (exponential then binary
-    search over the end point) as far as a cubic still fits. A span's cubic keeps the
+    Greedy longest fit: from each joint the next segment is grown (a first try as long as
+    the previous segment, galloping on while it fits, then a binary search over the end
+    point) as far as a cubic still fits. A span's cubic keeps the
     span's end points; its two inner controls come from least squares over chord-length
     parameters [1]_ (weights 1/tol^2), then up to two Gauss-Newton steps of tangent
     distance minimisation [2]_, each followed by a Newton reparameterisation; Schneider's
