@@ -6,6 +6,7 @@ import pytest
 
 import isophote
 from isophote.encoder.noise import CAP_FRACTION, local_noise, prepare_plane, residual, sample_error
+from isophote._kernels.prune import prune_ref
 from isophote.encoder.prune import prune_extrema
 from isophote.imageio import dct_quantisation_error, read_image
 from isophote.options import EncodeOptions
@@ -146,6 +147,30 @@ def test_prune_keeps_faint_but_large_regions():
     plane[5:15, 40:55] = 128.0  # 150 pixels just over the level
     out = prune_extrema(plane, [127.5], area=40, contrast=2.0)
     assert np.array_equal(out[5:15, 40:55], plane[5:15, 40:55])
+
+
+def test_prune_kernel_equals_its_twin():
+    """The compiled pruning (components grown from the samples near each level) gives the
+    twin's bits (every component labelled over the plane), on noisy planes with integer
+    and real samples, scalar and per-pixel thresholds, fractional areas, and a plane whose
+    every sample lies near the level (one large component the kernel must give up)."""
+    rng = np.random.default_rng(0)
+    changed = 0
+    for _ in range(300):
+        h, w = rng.integers(1, 40, 2)
+        f = rng.normal(128.0, rng.uniform(0.5, 20.0), (h, w))
+        if rng.random() < 0.5:
+            f = np.round(f)
+        levels = np.sort(rng.uniform(100.0, 160.0, rng.integers(1, 8)))
+        thr = rng.uniform(0.0, 4.0, (h, w)) if rng.random() < 0.5 else float(rng.uniform(0.0, 4.0))
+        area = float(rng.choice([2.0, 3.0, 5.0, 15.5, 16.0, 40.0]))
+        out = prune_extrema(f, levels, area, thr)
+        assert np.array_equal(out, prune_ref(f, levels, area, thr))
+        changed += int(np.count_nonzero(out != f))
+    assert changed > 1000  # the comparison saw real pruning
+    flat = 127.5 + rng.uniform(-0.4, 0.4, (30, 30))
+    out = prune_extrema(flat, [127.5], 16, 1.0)
+    assert np.array_equal(out, prune_ref(flat, [127.5], 16, 1.0)) and not np.array_equal(out, flat)
 
 
 def test_pruned_encode_loses_the_blob_loop_only():

@@ -18,11 +18,18 @@ Why per level and not an area opening of the whole grey-level range (skimage's
 times faster on noisy photographs, and each sample moves by the least that removes the
 crossing, where an area opening would flatten every small peak to its saddle whatever its
 contrast. A high-contrast speck (a star, a catchlight) keeps its loops.
+
+The compiled kernel (_kernels/prune.py) grows components only from the samples that lie
+within the largest threshold of the level, so a level costs its near samples, not the
+plane: on astronaut's U and V (balanced) 0.03 s instead of 0.44 s (processor time), the
+same bits as its twin, which labels the whole plane level by level.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .._kernels.prune import prune_kernel
 
 
 def prune_extrema(plane, levels, area, contrast) -> np.ndarray:
@@ -41,39 +48,9 @@ def prune_extrema(plane, levels, area, contrast) -> np.ndarray:
     (H, W) float64, a new array; samples move towards the level they crossed, by less
     than the contrast.
     """
-    from scipy import ndimage
-
     f = np.array(plane, np.float64, copy=True)
-    thr = np.broadcast_to(np.asarray(contrast, np.float64), f.shape)
     if area <= 1 or f.size == 0:
         return f
-    for level in np.asarray(levels, np.float64):
-        if not (f.min() < level <= f.max()):
-            continue  # nothing crosses this level
-        for bright in (True, False):
-            mask = f >= level if bright else f < level
-            lab, n = ndimage.label(mask)  # 4-connected
-            if n == 0:
-                continue
-            flat = lab.ravel()
-            count = np.bincount(flat, minlength=n + 1)
-            small = count < area
-            small[0] = False
-            if not small.any():
-                continue
-            # measure only the samples of small components
-            sel = small[flat]
-            ls = flat[sel]
-            beyond = (f.ravel()[sel] - level) if bright else (level - f.ravel()[sel])
-            ext = np.zeros(n + 1)
-            order = np.argsort(ls, kind="stable")
-            ls_sorted = ls[order]
-            starts = np.flatnonzero(np.r_[True, ls_sorted[1:] != ls_sorted[:-1]])
-            ext[ls_sorted[starts]] = np.maximum.reduceat(beyond[order], starts)
-            mean_thr = np.bincount(ls, thr.ravel()[sel], minlength=n + 1) / np.maximum(count, 1)
-            drop = small & (ext < mean_thr)
-            if not drop.any():
-                continue
-            where = drop[lab]
-            f[where] = np.nextafter(level, -np.inf) if bright else level
+    thr = np.ascontiguousarray(np.broadcast_to(np.asarray(contrast, np.float64), f.shape))
+    prune_kernel(f, thr, np.ascontiguousarray(levels, np.float64), int(np.ceil(area)))
     return f

@@ -1,0 +1,198 @@
+"""Kernel of the pruning of small, low-contrast level crossings (encoder/prune.py), with its
+plain NumPy reference twin.
+
+Used by :mod:`isophote.encoder.prune`, which documents and validates; nothing here checks its
+arguments. Both give the same bits (tests compare them).
+
+The twin labels every component of {f >= L} (and of {f < L}) over the whole plane, level
+after level. The kernel visits only what can change: a component is flattened only if
+every sample lies less than the largest contrast threshold beyond the level, so it grows
+4-connected components from the samples that lie that close, and gives one up (it stays)
+as soon as it reaches ``area`` samples, a sample farther beyond, or a sample of a
+component given up before in the same pass. Each sample is visited at most once per pass,
+so a level costs its near samples, not the plane. A component that stays whole is judged
+as the twin judges it: its largest excursion beyond the level against the mean of its
+samples' thresholds, summed in the twin's order (flat index).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def _pass(f, thr, level, area, bright, limit, seen, first_id, next_id, stack, comp, drop):
+    """One pass (bright: components of {f >= level}, else of {f < level}) over the flat
+    plane f; returns (next free component id, dropped samples in drop[:k], k)."""
+    h, w = f.shape
+    ff = f.ravel()
+    tt = thr.ravel()
+    n = h * w
+    nd = 0
+    for p in range(n):
+        v = ff[p]
+        if bright:
+            if not v >= level:
+                continue
+            beyond = v - level
+        else:
+            if not v < level:
+                continue
+            beyond = level - v
+        if beyond > limit or seen[p] >= first_id:
+            continue
+        cid = next_id
+        next_id += 1
+        seen[p] = cid
+        stack[0] = p
+        top = 1
+        size = 0
+        ok = True
+        while top > 0 and ok:
+            top -= 1
+            a = stack[top]
+            comp[size] = a
+            size += 1
+            if size >= area:
+                ok = False
+                break
+            r = a // w
+            c = a - r * w
+            for k in range(4):
+                if k == 0:
+                    if r == 0:
+                        continue
+                    b = a - w
+                elif k == 1:
+                    if r == h - 1:
+                        continue
+                    b = a + w
+                elif k == 2:
+                    if c == 0:
+                        continue
+                    b = a - 1
+                else:
+                    if c == w - 1:
+                        continue
+                    b = a + 1
+                vb = ff[b]
+                if bright:
+                    if not vb >= level:
+                        continue
+                    bb = vb - level
+                else:
+                    if not vb < level:
+                        continue
+                    bb = level - vb
+                if seen[b] == cid:
+                    continue
+                if bb > limit or seen[b] >= first_id:
+                    ok = False  # farther beyond, or part of a component given up
+                    break
+                seen[b] = cid
+                stack[top] = b
+                top += 1
+        if not ok:
+            continue
+        # the whole component, fewer than area samples: in flat order, as the twin sums
+        for i in range(1, size):
+            x = comp[i]
+            j = i - 1
+            while j >= 0 and comp[j] > x:
+                comp[j + 1] = comp[j]
+                j -= 1
+            comp[j + 1] = x
+        ext = -np.inf
+        tsum = 0.0
+        for i in range(size):
+            q = comp[i]
+            e = ff[q] - level if bright else level - ff[q]
+            if e > ext:
+                ext = e
+            tsum += tt[q]
+        if ext < tsum / size:
+            for i in range(size):
+                drop[nd] = comp[i]
+                nd += 1
+    return next_id, nd
+
+
+@njit(cache=True, nogil=True)
+def prune_kernel(f, thr, levels, area):
+    """Flatten the small, low-contrast crossings of every level of f (H, W) in place; thr
+    (H, W) the contrast thresholds, area > 1."""
+    h, w = f.shape
+    n = h * w
+    ff = f.ravel()
+    tmax = 0.0
+    for p in range(n):
+        if thr.ravel()[p] > tmax:
+            tmax = thr.ravel()[p]
+    # beyond this no component can be flattened (the mean of thresholds up to tmax stays
+    # below it, rounding included)
+    limit = tmax * (1.0 + 1e-9)
+    seen = np.full(n, -1, np.int64)
+    stack = np.empty(4 * area + 4, np.int64)  # each of < area samples pushes <= 4
+    comp = np.empty(area, np.int64)
+    drop = np.empty(n, np.int64)
+    next_id = 0
+    for li in range(levels.shape[0]):
+        level = levels[li]
+        lo = np.inf
+        hi = -np.inf
+        for p in range(n):
+            if ff[p] < lo:
+                lo = ff[p]
+            if ff[p] > hi:
+                hi = ff[p]
+        if not (lo < level <= hi):
+            continue
+        for bright in (True, False):
+            first_id = next_id
+            next_id, nd = _pass(f, thr, level, area, bright, limit, seen, first_id, next_id,
+                                stack, comp, drop)
+            value = np.nextafter(level, -np.inf) if bright else level
+            for i in range(nd):
+                ff[drop[i]] = value
+
+
+def prune_ref(plane, levels, area, contrast) -> np.ndarray:
+    """Reference twin: every component labelled over the whole plane (scipy), level by
+    level. Returns a new array."""
+    from scipy import ndimage
+
+    f = np.array(plane, np.float64, copy=True)
+    thr = np.broadcast_to(np.asarray(contrast, np.float64), f.shape)
+    if area <= 1 or f.size == 0:
+        return f
+    for level in np.asarray(levels, np.float64):
+        if not (f.min() < level <= f.max()):
+            continue  # nothing crosses this level
+        for bright in (True, False):
+            mask = f >= level if bright else f < level
+            lab, n = ndimage.label(mask)  # 4-connected
+            if n == 0:
+                continue
+            flat = lab.ravel()
+            count = np.bincount(flat, minlength=n + 1)
+            small = count < area
+            small[0] = False
+            if not small.any():
+                continue
+            # measure only the samples of small components
+            sel = small[flat]
+            ls = flat[sel]
+            beyond = (f.ravel()[sel] - level) if bright else (level - f.ravel()[sel])
+            ext = np.zeros(n + 1)
+            order = np.argsort(ls, kind="stable")
+            ls_sorted = ls[order]
+            starts = np.flatnonzero(np.r_[True, ls_sorted[1:] != ls_sorted[:-1]])
+            ext[ls_sorted[starts]] = np.maximum.reduceat(beyond[order], starts)
+            mean_thr = np.bincount(ls, thr.ravel()[sel], minlength=n + 1) / np.maximum(count, 1)
+            drop = small & (ext < mean_thr)
+            if not drop.any():
+                continue
+            where = drop[lab]
+            f[where] = np.nextafter(level, -np.inf) if bright else level
+    return f
