@@ -22,10 +22,14 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    point's parameter towards its foot on the curve. The tests: every point k lies within
    tol[k] of the curve point B(u[k]) (an upper bound of its distance to the curve), and
    the whole curve lies within max(tol[e], tol[e+1]) of some edge e of the span (so it
-   cannot bulge between points): every two neighbouring curve samples (at each u[k] and
-   between) lie within one same edge's tolerance less a margin that bounds the curve's
-   excursion from their chord. Between points the curve must also run the way of its
-   edge (no fish-tail loops inside the ribbon).
+   cannot bulge between points): on each interval u[k]..u[k+1] either the curve's
+   excursion from its chord (curv du^2 / 8) plus the larger point error of the interval's
+   ends is within edge k's tolerance (a bound, no sampling: 77 % of the intervals tested
+   on astronaut's Y, and fitting 15-20 % faster than sampling every interval), or every
+   two neighbouring curve samples (at u[k], between, at u[k+1]) lie within one same edge's
+   tolerance less a margin that bounds the curve's excursion from their chord. Between
+   points the curve must also run the way of its edge (no fish-tail loops inside the
+   ribbon).
 3. G1 snapping: at each joint whose incoming and outgoing handles differ in direction by
    less than the threshold, both handles are rotated onto their length-weighted bisector
    (P - Cb + Ca - P) keeping their lengths; the change is kept only if both adjacent
@@ -245,11 +249,12 @@ def _solve4(a, x):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _newton(q, w, i, j, u, c, limit):
+def _newton(q, w, ed, i, j, u, c, limit):
     """One Newton step of every inner parameter towards its point's foot on the curve,
     clamped to [0, 1] and to the previous parameter (parameters never decrease). Returns
     the largest (|B(u[k]) - q[k]| / tol[k])^2 at the new parameters, stopping early (with
-    the rest of u untouched) once it exceeds limit."""
+    the rest of u untouched) once it exceeds limit; notes each |B(u[k]) - q[k]|^2 in
+    ed[k, 4] for _bulge_ok."""
     p0x = q[i, 0]
     p0y = q[i, 1]
     p3x = q[j, 0]
@@ -297,7 +302,9 @@ def _newton(q, w, i, j, u, c, limit):
         b3 = t * t * t
         dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
         dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
-        e = (dx * dx + dy * dy) * w[k]
+        d2 = dx * dx + dy * dy
+        ed[k, 4] = d2
+        e = d2 * w[k]
         if e > worst:
             worst = e
             if e > limit:
@@ -327,7 +334,8 @@ def _within(q, ed, e, x, y, margin):
 @njit(cache=True, nogil=True, error_model="numpy")
 def _edges(q, tol, n, ed):
     """Per polyline edge e of q[:n]: its vector, the inverse of its squared length (0 for
-    a repeated point) and its tolerance max(tol[e], tol[e+1]), in ed[e, 0:4]."""
+    a repeated point) and its tolerance max(tol[e], tol[e+1]), in ed[e, 0:4] (ed[:, 4]:
+    _newton's squared point errors)."""
     for e in range(n - 1):
         ex = q[e + 1, 0] - q[e, 0]
         ey = q[e + 1, 1] - q[e, 1]
@@ -358,13 +366,17 @@ def _samples(ed, u, curv, k):
 @njit(cache=True, nogil=True, error_model="numpy")
 def _bulge_ok(q, ed, i, j, u, c):
     """True when the whole curve stays inside the ribbon of the span's edges and runs
-    forwards along them.
+    forwards along them (ed[:, 4]: the squared point errors at u, from _newton).
 
-    The curve is sampled at every u[k] and between them. Between two neighbouring samples
-    it strays from their chord by at most a margin (from a bound on |B''|), and the
-    distance to an edge is convex along the chord, so it is enough that both samples lie
-    within one same edge's tolerance less the margin. Edges are searched outwards from
-    the interval's own edge, after the edge that served the previous pair.
+    Interval by interval (u[k]..u[k+1], polyline edge k): the curve must run the edge's
+    way at the interval's inner samples. Then, first, a bound: the curve lies within
+    curv * du^2 / 8 of the chord between its ends (|B''| <= curv), and that chord within
+    the larger of the two point errors of edge k, so the interval is inside when their sum
+    is at most the edge's tolerance. Where it is not, every two neighbouring samples
+    (u[k], the inner ones, u[k+1]) must lie within one same edge's tolerance less a margin
+    that bounds the curve's excursion from their chord (the distance to an edge is convex
+    along the chord). Edges are searched outwards from the interval's own edge, after the
+    edge that served the previous pair.
     """
     p0x = q[i, 0]
     p0y = q[i, 1]
@@ -377,22 +389,29 @@ def _bulge_ok(q, ed, i, j, u, c):
     bx = c[0] - 2.0 * c[2] + p3x
     by = c[1] - 2.0 * c[3] + p3y
     curv = 6.0 * math.sqrt(max(ax * ax + ay * ay, bx * bx + by * by))
-    x0 = p0x  # the previous sample, its margin, and an edge near it (or -1)
-    y0 = p0y
-    ns, margin = _samples(ed, u, curv, i)
-    mg0 = margin
-    cur = -1
-    ns_next = ns
-    margin_next = margin
     for k in range(i, j):
         du = u[k + 1] - u[k]
-        # the sample at u[k+1] serves both its intervals: the larger margin
-        end_margin = margin
-        if k + 1 < j:
-            ns_next, margin_next = _samples(ed, u, curv, k + 1)
-            end_margin = max(margin, margin_next)
-        for m in range(1, ns + 2):
-            t = u[k] + du * m / (ns + 1) if m <= ns else u[k + 1]
+        ns, margin = _samples(ed, u, curv, k)
+        # no backtracking: between polyline points the curve runs the edge's way, so a
+        # fit cannot tie a loop (a fish-tail) inside the ribbon
+        for m in range(1, ns + 1):
+            t = u[k] + du * m / (ns + 1)
+            s = 1.0 - t
+            dx = s * s * (c[0] - p0x) + 2.0 * s * t * (c[2] - c[0]) + t * t * (p3x - c[2])
+            dy = s * s * (c[1] - p0y) + 2.0 * s * t * (c[3] - c[1]) + t * t * (p3y - c[3])
+            if dx * ed[k, 0] + dy * ed[k, 1] < 0.0:
+                return False
+        # the chord bound (the span's end points lie on the curve)
+        e0 = ed[k, 4] if k > i else 0.0
+        e1 = ed[k + 1, 4] if k + 1 < j else 0.0
+        slack = ed[k, 3] - curv * du * du / 8.0
+        if slack >= 0.0 and max(e0, e1) <= slack * slack:
+            continue
+        cur = -1
+        x0 = 0.0
+        y0 = 0.0
+        for m in range(0, ns + 2):
+            t = u[k] + du * m / (ns + 1) if 0 < m <= ns else (u[k] if m == 0 else u[k + 1])
             s = 1.0 - t
             b0 = s * s * s
             b1 = 3.0 * s * s * t
@@ -400,21 +419,13 @@ def _bulge_ok(q, ed, i, j, u, c):
             b3 = t * t * t
             x = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x
             y = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y
-            if m <= ns:
-                # no backtracking: between polyline points the curve runs the edge's way,
-                # so a fit cannot tie a loop (a fish-tail) inside the ribbon
-                dx = s * s * (c[0] - p0x) + 2.0 * s * t * (c[2] - c[0]) + t * t * (p3x - c[2])
-                dy = s * s * (c[1] - p0y) + 2.0 * s * t * (c[3] - c[1]) + t * t * (p3y - c[3])
-                if dx * ed[k, 0] + dy * ed[k, 1] < 0.0:
-                    return False
-            mg = margin if m <= ns else end_margin
-            if cur < 0 or not _within(q, ed, cur, x, y, mg):
+            if m > 0 and (cur < 0 or not _within(q, ed, cur, x, y, margin)):
                 cur = -1
                 for r in range(j - i):
                     for e in (k - r, k + r):
                         if e < i or e >= j or (r == 0 and e != k - r):
                             continue
-                        if _within(q, ed, e, x, y, mg) and _within(q, ed, e, x0, y0, mg0):
+                        if _within(q, ed, e, x, y, margin) and _within(q, ed, e, x0, y0, margin):
                             cur = e
                             break
                     if cur >= 0 or (k - r < i and k + r >= j - 1):
@@ -423,10 +434,6 @@ def _bulge_ok(q, ed, i, j, u, c):
                     return False
             x0 = x
             y0 = y
-            mg0 = mg
-        if k + 1 < j:
-            ns = ns_next
-            margin = margin_next
     return True
 
 
@@ -461,7 +468,7 @@ def _fit_span(q, ed, w, cum, i, j, u, c, work):
         else:
             _tdm(q, w, i, j, u, c, work)
         limit = GIVE_UP[it] * GIVE_UP[it] if it < len(GIVE_UP) else 1.0
-        worst = _newton(q, w, i, j, u, c, limit)
+        worst = _newton(q, w, ed, i, j, u, c, limit)
         if worst <= 1.0 and _bulge_ok(q, ed, i, j, u, c):
             return True
         if worst > limit:
@@ -478,7 +485,7 @@ def _check_fixed(q, ed, w, i, j, u, c, steps=NEWTON_STEPS):
     u[j] = 1.0
     worst = 0.0
     for it in range(steps):
-        worst = _newton(q, w, i, j, u, c, 1.0 if it == steps - 1 else np.inf)
+        worst = _newton(q, w, ed, i, j, u, c, 1.0 if it == steps - 1 else np.inf)
     if worst > 1.0:
         return False
     return _bulge_ok(q, ed, i, j, u, c)
@@ -694,7 +701,7 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen=0):
     q = np.empty((size, 2))
     tq = np.empty(size)
     wq = np.empty(size)
-    ed = np.empty((size, 4))
+    ed = np.empty((size, 5))
     cum = np.empty(size)
     u = np.empty(size)
     ut = np.empty(size)
@@ -870,17 +877,39 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     need = du * np.sqrt(curv / tl)
     ns = np.where(need > 1.0, np.minimum(need, MAX_SAMPLES).astype(np.int64), 1)
     margin = curv * (du / (ns + 1)) ** 2 / 8.0
-    # samples in curve order: t = 0, then for each interval k the inner ones
-    # u[k] + du[k] * m / (ns[k] + 1), m = 1 .. ns[k], then u[k+1]; a sample at u[k] takes
-    # the larger margin of its two intervals
-    k = np.repeat(np.arange(j - i), ns + 1)
-    m = np.arange(len(k)) - np.repeat(np.cumsum(ns + 1) - (ns + 1), ns + 1) + 1
-    inner = m <= ns[k]
-    t = np.where(inner, u[i:j][k] + du[k] * m / (ns[k] + 1), u[i + 1 : j + 1][k])
-    x = _eval_ref(p0, c, p3, np.concatenate([[u[i]], t]))
-    ends = np.concatenate([margin[:1], np.maximum(margin[:-1], margin[1:]), margin[-1:]])
-    mg = np.concatenate([[margin[0]], np.where(inner, margin[k], ends[k + 1])])
     a, e = q[i:j], q[i + 1 : j + 1] - q[i:j]
+    # no backtracking at the inner samples u[k] + du[k] * m / (ns[k] + 1), m = 1 .. ns[k]:
+    # B'(t) . edge >= 0
+    k = np.repeat(np.arange(j - i), ns)
+    m = np.arange(len(k)) - np.repeat(np.cumsum(ns) - ns, ns) + 1
+    t = u[i:j][k] + du[k] * m / (ns[k] + 1)
+    s_ = 1.0 - t
+    d = (
+        (s_ * s_)[:, None] * (c1 - p0)[None]
+        + (2.0 * s_ * t)[:, None] * (c2 - c1)[None]
+        + (t * t)[:, None] * (p3 - c2)[None]
+    )
+    if not np.all(d[:, 0] * e[k, 0] + d[:, 1] * e[k, 1] >= 0.0):
+        return False
+    # the chord bound: the curve within curv du^2 / 8 of the chord between its interval's
+    # ends, the chord within the larger of their point errors of edge k
+    e2 = np.zeros(j - i + 1)
+    if j - i > 1:
+        dd = _eval_ref(p0, c, p3, u[i + 1 : j]) - q[i + 1 : j]
+        e2[1:-1] = dd[:, 0] * dd[:, 0] + dd[:, 1] * dd[:, 1]
+    slack = tl - curv * du * du / 8.0
+    sampled = np.flatnonzero(~((slack >= 0.0) & (np.maximum(e2[:-1], e2[1:]) <= slack * slack)))
+    if sampled.size == 0:
+        return True
+    # elsewhere every two neighbouring samples (u[k], the inner ones, u[k+1]) near one same
+    # edge, less the interval's margin
+    cnt = ns[sampled] + 2
+    k = np.repeat(sampled, cnt)
+    m = np.arange(len(k)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    inner = (m > 0) & (m <= ns[k])
+    t = np.where(inner, u[i:j][k] + du[k] * m / (ns[k] + 1), np.where(m == 0, u[i:j][k], u[i + 1 : j + 1][k]))
+    x = _eval_ref(p0, c, p3, t)
+    mg = margin[k]
     ll = e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1]
     inv = np.zeros(len(ll))
     np.divide(1.0, ll, out=inv, where=ll > 0.0)
@@ -890,17 +919,8 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     dy = a[:, 1] + h * e[:, 1] - x[:, None, 1]
     lim = tl[None, :] - mg[:, None]
     near = (lim >= 0.0) & (dx * dx + dy * dy <= lim * lim)  # (samples, edges)
-    # every two neighbouring samples near one same edge
-    inside = bool(np.all(np.any(near[:-1] & near[1:], axis=1)))
-    # no backtracking between polyline points (inner samples): B'(t) . edge >= 0
-    s_ = 1.0 - t
-    d = (
-        (s_ * s_)[:, None] * (c1 - p0)[None]
-        + (2.0 * s_ * t)[:, None] * (c2 - c1)[None]
-        + (t * t)[:, None] * (p3 - c2)[None]
-    )
-    fwd = d[:, 0] * e[k, 0] + d[:, 1] * e[k, 1]
-    return inside and bool(np.all(fwd[inner] >= 0.0))
+    pair = k[1:] == k[:-1]
+    return bool(np.all(np.any(near[:-1] & near[1:], axis=1)[pair]))
 
 
 def _fit_span_ref(q, tol, cum, i, j, u):
