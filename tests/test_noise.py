@@ -163,7 +163,7 @@ def test_prune_kernel_equals_its_twin():
             f = np.round(f)
         levels = np.sort(rng.uniform(100.0, 160.0, rng.integers(1, 8)))
         thr = rng.uniform(0.0, 4.0, (h, w)) if rng.random() < 0.5 else float(rng.uniform(0.0, 4.0))
-        area = float(rng.choice([2.0, 3.0, 5.0, 15.5, 16.0, 40.0]))
+        area = float(rng.choice([2.0, 3.0, 5.0, 15.5, 16.0, 40.0, 1e6]))
         out = prune_extrema(f, levels, area, thr)
         assert np.array_equal(out, prune_ref(f, levels, area, thr))
         changed += int(np.count_nonzero(out != f))

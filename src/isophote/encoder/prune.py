@@ -52,5 +52,6 @@ def prune_extrema(plane, levels, area, contrast) -> np.ndarray:
     if area <= 1 or f.size == 0:
         return f
     thr = np.ascontiguousarray(np.broadcast_to(np.asarray(contrast, np.float64), f.shape))
-    prune_kernel(f, thr, np.ascontiguousarray(levels, np.float64), int(np.ceil(area)))
+    # no component exceeds the plane: a larger area changes nothing but the kernel's scratch
+    prune_kernel(f, thr, np.ascontiguousarray(levels, np.float64), int(min(np.ceil(area), f.size + 1)))
     return f
