@@ -22,6 +22,15 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
+def _beyond(v, level, bright):
+    """How far v lies beyond the level on the pass's side (bright: v >= level, else
+    v < level), or -1 when it is not on that side."""
+    if bright:
+        return v - level if v >= level else -1.0
+    return level - v if v < level else -1.0
+
+
+@njit(cache=True, nogil=True)
 def _pass(f, thr, level, area, bright, limit, seen, first_id, next_id, stack, comp, drop):
     """One pass (bright: components of {f >= level}, else of {f < level}) over the flat
     plane f; returns (next free component id, dropped samples in drop[:k], k)."""
@@ -31,16 +40,8 @@ def _pass(f, thr, level, area, bright, limit, seen, first_id, next_id, stack, co
     n = h * w
     nd = 0
     for p in range(n):
-        v = ff[p]
-        if bright:
-            if not v >= level:
-                continue
-            beyond = v - level
-        else:
-            if not v < level:
-                continue
-            beyond = level - v
-        if beyond > limit or seen[p] >= first_id:
+        beyond = _beyond(ff[p], level, bright)
+        if beyond < 0.0 or beyond > limit or seen[p] >= first_id:
             continue
         cid = next_id
         next_id += 1
@@ -76,16 +77,8 @@ def _pass(f, thr, level, area, bright, limit, seen, first_id, next_id, stack, co
                     if c == w - 1:
                         continue
                     b = a + 1
-                vb = ff[b]
-                if bright:
-                    if not vb >= level:
-                        continue
-                    bb = vb - level
-                else:
-                    if not vb < level:
-                        continue
-                    bb = level - vb
-                if seen[b] == cid:
+                bb = _beyond(ff[b], level, bright)
+                if bb < 0.0 or seen[b] == cid:
                     continue
                 if bb > limit or seen[b] >= first_id:
                     ok = False  # farther beyond, or part of a component given up
@@ -107,7 +100,7 @@ def _pass(f, thr, level, area, bright, limit, seen, first_id, next_id, stack, co
         tsum = 0.0
         for i in range(size):
             q = comp[i]
-            e = ff[q] - level if bright else level - ff[q]
+            e = _beyond(ff[q], level, bright)
             if e > ext:
                 ext = e
             tsum += tt[q]
@@ -122,13 +115,9 @@ def _pass(f, thr, level, area, bright, limit, seen, first_id, next_id, stack, co
 def prune_kernel(f, thr, levels, area):
     """Flatten the small, low-contrast crossings of every level of f (H, W) in place; thr
     (H, W) the contrast thresholds, area > 1."""
-    h, w = f.shape
-    n = h * w
+    n = f.size
     ff = f.ravel()
-    tmax = 0.0
-    for p in range(n):
-        if thr.ravel()[p] > tmax:
-            tmax = thr.ravel()[p]
+    tmax = max(0.0, thr.max())
     # beyond this no component can be flattened (the mean of thresholds up to tmax stays
     # below it, rounding included)
     limit = tmax * (1.0 + 1e-9)
@@ -139,14 +128,7 @@ def prune_kernel(f, thr, levels, area):
     next_id = 0
     for li in range(levels.shape[0]):
         level = levels[li]
-        lo = np.inf
-        hi = -np.inf
-        for p in range(n):
-            if ff[p] < lo:
-                lo = ff[p]
-            if ff[p] > hi:
-                hi = ff[p]
-        if not (lo < level <= hi):
+        if not (ff.min() < level <= ff.max()):
             continue
         for bright in (True, False):
             first_id = next_id
