@@ -381,11 +381,30 @@ def test_rasterise_matches_its_twin(seed, quantised):
     x0, y0, x1, y1 = random_edges(rng, w, h, int(rng.integers(1, 5)), quantised)
     src = rng.random(len(x0)) < 0.7
     for row0, col0, n_rows, n_cols in ((0, 0, h, w), (3, 5, 9, 11), (-2, -3, h + 4, w + 6)):
-        ref = rasterise_ref(x0, y0, x1, y1, row0, col0, n_rows, n_cols)
-        for crossings in (False, True):
-            band, *_ = rasterise(x0, y0, x1, y1, src, row0, col0, n_rows, n_cols, crossings)
-            assert band.dtype == ref.dtype == np.int16
-            assert np.array_equal(band, ref), (row0, col0, crossings)
+        for transposed in (False, True):
+            ref = rasterise_ref(x0, y0, x1, y1, row0, col0, n_rows, n_cols, transposed)
+            for crossings in (False, True):
+                band, *_ = rasterise(x0, y0, x1, y1, src, row0, col0, n_rows, n_cols, crossings, transposed)
+                assert band.dtype == ref.dtype == np.int16
+                assert np.array_equal(band, ref), (row0, col0, crossings, transposed)
+
+
+def test_rows_and_columns_settle_edges_through_samples_alike():
+    """Diamonds whose straight edges run at 45 degrees exactly through sample centres (and
+    squares along sample rows): the band the rows give equals the band the columns give
+    (the transposed raster, transposed back), so no crossing is seen on the wrong side."""
+    for cx, cy, rad in ((6.5, 5.5, 3.0), (7.5, 6.5, 2.0), (6.0, 6.0, 2.5), (6.5, 6.5, 4.0)):
+        for pts in ([(cx, cy - rad), (cx - rad, cy), (cx, cy + rad), (cx + rad, cy)],
+                    [(cx - rad, cy - rad), (cx - rad, cy + rad), (cx + rad, cy + rad), (cx + rad, cy - rad)]):
+            p = np.array(pts)
+            for d in (p, p[::-1]):
+                q = np.roll(d, -1, axis=0)
+                x0, y0, x1, y1 = d[:, 0], d[:, 1], q[:, 0], q[:, 1]
+                src = np.ones(4, bool)
+                rows, *_ = rasterise(x0, y0, x1, y1, src, 0, 0, 14, 14, False)
+                cols, *_ = rasterise(y0, x0, y1, x1, src, 0, 0, 14, 14, False, True)
+                assert np.array_equal(rows, -cols.T), (cx, cy, rad)
+                assert np.abs(rows).max() == 1
 
 
 def test_rasterise_square_has_the_known_winding():
@@ -466,7 +485,7 @@ def test_propagate_matches_its_twin_on_seeded_fields(seed, mode):
     x0, y0, x1, y1 = random_edges(rng, nc, nr, 3, quantised=False)
     src = np.ones(len(x0), bool)
     band, *h = rasterise(x0, y0, x1, y1, src, 0, 0, nr, nc, True)
-    _, *v = rasterise(y0, x0, y1, x1, src, 0, 0, nc, nr, True)
+    _, *v = rasterise(y0, x0, y1, x1, src, 0, 0, nc, nr, True, True)
     band = band - band.min()
     levels = np.arange(1, int(band.max()) + 2) * 10.0 + 0.5
     F = seed_field = seed_fields(band, tuple(h), tuple(v), levels, mode)

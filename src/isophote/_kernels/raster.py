@@ -1,17 +1,21 @@
 """Scanline winding accumulation (kernel + NumPy twin).
 
 Grid convention: sample (i, j) sits at (j + 0.5, i + 0.5) in grid units, and is tested at
-(j + 0.5 + NUDGE, i + 0.5 + NUDGE). Chain joints lie on a 1/64 px lattice, often exactly on
+(j + 0.5 + NUDGE_X, i + 0.5 + NUDGE_Y). Chain joints lie on a 1/64 px lattice, often exactly on
 sample rows and columns: a joint touching a row from one side would give a pair of crossings
 that cancel in the band but not in the crossing record (a phantom distance source), and an
 isoline through a sample would be counted on one side by the rows and on the other by the
 columns. The nudge, off every such lattice and far below any visible distance, settles both
-the same way in both directions (the transposed raster of the columns included).
-An edge crosses row i when min(y0, y1) <= yc < max(y0, y1), yc = i + 0.5 + NUDGE
+the same way in both directions (the transposed raster of the columns, ``transposed``, tests
+the same point). Its two components differ, in a ratio no lattice slope has: with equal ones
+a straight edge at 45 degrees through a sample would pass through the tested point itself,
+and the rows and the columns would settle it on opposite sides (a phantom source).
+An edge crosses row i when min(y0, y1) <= yc < max(y0, y1), yc = i + 0.5 + NUDGE_Y
 (half-open, so a joint a chain passes through counts once); the crossing at x changes the
 winding of every sample of the row tested right of x, i.e. samples j >= k with
-k = floor(x + 0.5 - NUDGE): the crossing lies in "gap" k, between samples k - 1 and k (gap 0
-is left of the first sample, gap n_cols right of the last).
+k = floor(x + 0.5 - NUDGE_X): the crossing lies in "gap" k, between samples k - 1 and k (gap 0
+is left of the first sample, gap n_cols right of the last). With ``transposed`` (x and y
+swapped by the caller) the two components swap too.
 An edge going down (y1 > y0) adds +1; contours with their above side on the left then add
 up to the band index (see model.py).
 
@@ -25,11 +29,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-NUDGE = 2.0**-21
+NUDGE_X = 2.0**-21
+NUDGE_Y = 2.0**-21 * 0.6180339887498949  # (sqrt(5) - 1) / 2: no lattice slope
 
 
 @njit(cache=True, nogil=True)
-def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
+def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings, transposed=False):
     """Band (winding sum) of rows row0 .. row0 + n_rows - 1, columns col0 .. col0 + n_cols - 1.
 
     Returns (band (n_rows, n_cols) int16, first_x, first_dw, last_x, last_dw, first_slope,
@@ -37,6 +42,7 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
     gap, the leftmost and rightmost crossing (dw = 0 where the gap has none, or where that
     crossing is a border edge's) and the crossing edge's dx/dy.
     """
+    nudge_row, nudge_col = (NUDGE_X, NUDGE_Y) if transposed else (NUDGE_Y, NUDGE_X)
     delta = np.zeros((n_rows, n_cols + 1), np.int32)
     if crossings:
         fx = np.full((n_rows, n_cols + 1), np.inf, np.float64)
@@ -62,8 +68,8 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
         else:
             lo, hi, dw = yb, ya, -1
         # rows i with lo <= i + 0.5 < hi, relative to row0
-        i_start = int(np.ceil(lo - 0.5 - NUDGE)) - row0
-        i_stop = int(np.ceil(hi - 0.5 - NUDGE)) - row0  # exclusive
+        i_start = int(np.ceil(lo - 0.5 - nudge_row)) - row0
+        i_stop = int(np.ceil(hi - 0.5 - nudge_row)) - row0  # exclusive
         if i_start < 0:
             i_start = 0
         if i_stop > n_rows:
@@ -72,9 +78,9 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
             continue
         slope = (x1[e] - x0[e]) / (yb - ya)
         for i in range(i_start, i_stop):
-            yc = i + row0 + 0.5 + NUDGE
+            yc = i + row0 + 0.5 + nudge_row
             x = x0[e] + (yc - ya) * slope
-            k = int(np.floor(x + 0.5 - NUDGE)) - col0
+            k = int(np.floor(x + 0.5 - nudge_col)) - col0
             if k < 0:
                 k = 0
             elif k > n_cols:
@@ -101,17 +107,18 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings):
     return band, fx, fd, lx, ld, fs, ls
 
 
-def rasterise_ref(x0, y0, x1, y1, row0, col0, n_rows, n_cols):
+def rasterise_ref(x0, y0, x1, y1, row0, col0, n_rows, n_cols, transposed=False):
     """NumPy twin of the band output: per row, all crossings at once."""
+    nudge_row, nudge_col = (NUDGE_X, NUDGE_Y) if transposed else (NUDGE_Y, NUDGE_X)
     band = np.zeros((n_rows, n_cols), np.int64)
     for i in range(n_rows):
-        yc = row0 + i + 0.5 + NUDGE
+        yc = row0 + i + 0.5 + nudge_row
         lo, hi = np.minimum(y0, y1), np.maximum(y0, y1)
         sel = (lo <= yc) & (yc < hi) & (y0 != y1)
         if not sel.any():
             continue
         x = x0[sel] + (yc - y0[sel]) * (x1[sel] - x0[sel]) / (y1[sel] - y0[sel])
         dw = np.where(y1[sel] > y0[sel], 1, -1)
-        k = np.clip(np.floor(x + 0.5 - NUDGE) - col0, 0, n_cols).astype(np.int64)
+        k = np.clip(np.floor(x + 0.5 - nudge_col) - col0, 0, n_cols).astype(np.int64)
         band[i] = ((k[None, :] <= np.arange(n_cols)[:, None]) * dw[None, :]).sum(axis=1)
     return band.astype(np.int16)

@@ -44,7 +44,7 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> Nod
     band, *h = rasterise(x0 * r, y0 * r, x1 * r, y1 * r, src, 0, 0, nr, nc, True)
     band += np.int16(ch.base_band)
     # columns: the same kernel on the transposed geometry
-    _, *v = rasterise(y0 * r, x0 * r, y1 * r, x1 * r, src, 0, 0, nc, nr, True)
+    _, *v = rasterise(y0 * r, x0 * r, y1 * r, x1 * r, src, 0, 0, nc, nr, True, True)
     mode = MODES[distance]
     F = seed(band, tuple(h), tuple(v), ch.levels, mode)
     propagate(F, band, offsets(mode), mode, MAX_SWEEPS)
