@@ -21,6 +21,7 @@ from isophote._kernels.marching import (
 from isophote._kernels.raster import rasterise, rasterise_ref
 from isophote._kernels.regions import (
     cap_sums, cap_sums_ref, label_regions, label_regions_ref, region_levels, region_levels_ref,
+    region_stats, region_stats_ref,
 )
 from isophote.encoder.isolines import pad_grid
 from isophote.encoder.levels import bands
@@ -234,6 +235,38 @@ def test_label_regions_saddle_follows_the_decider():
             lab, _ = fn(vals, band.astype(np.int64), levels)
             assert (lab[1, 1] == lab[2, 2]) == joined
             assert lab[1, 2] != lab[2, 1] if joined else lab[1, 2] == lab[2, 1]
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])
+def test_region_stats_matches_its_twin(seed, quantised):
+    rng = np.random.default_rng(200 + seed)
+    vals, band, levels = random_grid(rng, quantised)
+    labels, m = label_regions(vals, band.astype(np.int64), levels)
+    got = region_stats(labels, vals, m)
+    ref = region_stats_ref(labels, vals, m)
+    for a, b in zip(got, ref):
+        assert np.array_equal(a, b)
+    deep, total, count = got
+    hp, wp = vals.shape
+    inner = count > 0
+    assert count.sum() == (hp - 2) * (wp - 2)
+    assert np.array_equal(labels.ravel()[deep[inner]], np.flatnonzero(inner))  # in its region
+
+
+def test_region_stats_deepest_sample_of_a_plateau_is_its_centre():
+    """A flat disc (every sample equal): its deepest sample is the centre, not the first
+    sample in scan order on its edge."""
+    n = 41
+    yy, xx = np.mgrid[0:n, 0:n]
+    grid = np.where(np.hypot(xx - 20, yy - 20) <= 12, 230.0, 100.0)
+    levels = np.array([165.0])
+    vals, band = pad_grid(grid, levels)
+    labels, m = label_regions(vals, band.astype(np.int64), levels)
+    deep, _, count = region_stats(labels, vals, m)
+    k = labels[21, 21]
+    r, c = divmod(int(deep[k]), n + 2)
+    assert abs(r - 21) + abs(c - 21) <= 1, (r, c)
 
 
 @pytest.mark.parametrize("seed", SEEDS)

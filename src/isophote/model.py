@@ -41,7 +41,8 @@ Caps
     samples. A channel may set its own ``cap_ramp`` instead of CAP_RAMP; ``inf`` (DOME) makes
     every cap a dome that reaches cap_value only at its farthest point from the contour, so
     that no cap is a flat plateau (equalisation uses it: a plateau is a single value that no
-    tone curve can spread). ``cap_xy`` is the region's extremum sample (it identifies the region), in band
+    tone curve can spread). ``cap_xy`` is a sample of the region (it identifies the region; the encoder takes the
+    sample farthest from its edges), in band
     ``cap_band``; ``cap_contour`` is the region's outer contour (-1 for the root region).
     A region with no contour at all is flat at cap_value.
 

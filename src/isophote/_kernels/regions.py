@@ -141,25 +141,79 @@ def label_regions_ref(vals, band, levels):
 
 @njit(cache=True, nogil=True)
 def region_stats(labels, vals, m):
-    """Per region (ignoring the padding ring): argmin, argmax (flat indices), sum, count."""
+    """Per region (ignoring the padding ring): its deepest sample (flat index), sum and
+    count. The deepest sample is the one farthest, in city-block grid steps,
+    from every edge sample (an image sample with a 4-neighbour of another region; the padding
+    is no neighbour, as in cap_sums), the first in scan order among equals; with no edge at
+    all, the first sample."""
     hp, wp = labels.shape
-    flat = vals.ravel()
-    amin = np.full(m, -1, np.int64)
-    amax = np.full(m, -1, np.int64)
+    h = hp - 2
+    w = wp - 2
+    deep = np.full(m, -1, np.int64)
     total = np.zeros(m)
     count = np.zeros(m, np.int64)
+    far = h + w + 1
+    d = np.empty((h, w), np.int64)
+    for r in range(h):  # forward chamfer pass: edges are 0, the rest 1 + the nearer of up, left
+        for c in range(w):
+            k = labels[r + 1, c + 1]
+            if ((c + 1 < w and labels[r + 1, c + 2] != k) or (c > 0 and labels[r + 1, c] != k)
+                    or (r + 1 < h and labels[r + 2, c + 1] != k) or (r > 0 and labels[r, c + 1] != k)):
+                d[r, c] = 0
+            else:
+                v = far
+                if r > 0 and d[r - 1, c] + 1 < v:
+                    v = d[r - 1, c] + 1
+                if c > 0 and d[r, c - 1] + 1 < v:
+                    v = d[r, c - 1] + 1
+                d[r, c] = v
+    for r in range(h - 1, -1, -1):  # backward pass: down, right
+        for c in range(w - 1, -1, -1):
+            v = d[r, c]
+            if r + 1 < h and d[r + 1, c] + 1 < v:
+                v = d[r + 1, c] + 1
+            if c + 1 < w and d[r, c + 1] + 1 < v:
+                v = d[r, c + 1] + 1
+            d[r, c] = min(v, far)
+    best = np.full(m, -1, np.int64)
     for r in range(1, hp - 1):
         for c in range(1, wp - 1):
             k = labels[r, c]
             i = r * wp + c
-            v = vals[r, c]
-            if amin[k] < 0 or v < flat[amin[k]]:
-                amin[k] = i
-            if amax[k] < 0 or v > flat[amax[k]]:
-                amax[k] = i
-            total[k] += v
+            if d[r - 1, c - 1] > best[k]:
+                best[k] = d[r - 1, c - 1]
+                deep[k] = i
+            total[k] += vals[r, c]
             count[k] += 1
-    return amin, amax, total, count
+    return deep, total, count
+
+
+def region_stats_ref(labels, vals, m):
+    """NumPy twin of :func:`region_stats` (scipy's city-block distance transform)."""
+    from scipy.ndimage import distance_transform_cdt
+
+    hp, wp = labels.shape
+    lab = labels[1:-1, 1:-1]
+    v = vals[1:-1, 1:-1]
+    edge = np.zeros(lab.shape, bool)
+    dh = lab[:, :-1] != lab[:, 1:]
+    dv = lab[:-1, :] != lab[1:, :]
+    edge[:, :-1] |= dh
+    edge[:, 1:] |= dh
+    edge[:-1, :] |= dv
+    edge[1:, :] |= dv
+    d = distance_transform_cdt(~edge, metric="taxicab") if edge.any() else np.zeros(lab.shape, np.int64)
+    rr, cc = np.mgrid[1 : hp - 1, 1 : wp - 1]
+    idx = (rr * wp + cc).ravel()
+    k = lab.ravel()
+    deep = np.full(m, -1, np.int64)
+    order = np.lexsort((idx, -d.ravel(), k))  # by region, deepest first, then scan order
+    first = np.ones(order.shape[0], bool)
+    first[1:] = k[order][1:] != k[order][:-1]
+    deep[k[order][first]] = idx[order][first]
+    total = np.bincount(k, weights=v.ravel(), minlength=m)
+    count = np.bincount(k, minlength=m).astype(np.int64)
+    return deep, total, count
 
 
 @njit(cache=True, nogil=True)

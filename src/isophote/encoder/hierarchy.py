@@ -7,8 +7,9 @@ A region is a footprint minus its children's footprints.
 
 Caps: a connected region (of the labelled band grid, _kernels/regions.py) whose bounding
 contours all have one level is a peak (band above that level)
-or a pit (band at or below it); it is annotated with its maximum or minimum sample. A region
-with no bounding contour at all (a channel that never crosses a level) gets its mean.
+or a pit (band at or below it); it is annotated with a least-squares cap value (the profile
+of model.py) at its deepest sample, the one farthest from the region's edges. A region with
+no bounding contour at all (a channel that never crosses a level) gets its mean.
 """
 
 from __future__ import annotations
@@ -112,22 +113,24 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
-    amin, amax, total, count = region_stats(labels, iso.values, m)
+    deep, total, count = region_stats(labels, iso.values, m)
     is_cap &= count > 0  # the padding-only part of the root has no samples
     regs = np.flatnonzero(is_cap)
-    vals_flat = iso.values.ravel()
     hp, wp = iso.band.shape
-    cap_band = iso.band.ravel()[amin[regs]].astype(np.int32)
-    no_contour = hi[regs] < 0  # the mean, at the sample closest to it
-    peak = ~no_contour & (cap_band == lo[regs] + 1)  # above its only level (else a pit)
-    cap_idx = np.where(peak, amax[regs], amin[regs]).astype(np.int64)
+    cap_band = iso.band.ravel()[deep[regs]].astype(np.int32)
+    no_contour = hi[regs] < 0  # the mean
     with np.errstate(invalid="ignore", divide="ignore"):
-        cap_value = np.where(no_contour, total[regs] / count[regs], vals_flat[cap_idx])
+        cap_value = total[regs] / count[regs]
     if len(regs):
-        single = ~no_contour
+        single = ~no_contour  # a least-squares profile (fit_cap_values)
         level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
         fitted = fit_cap_values(labels, iso.values, m, regs, level_value, single)
         cap_value = np.where(single, fitted, cap_value)
+    # the cap is placed at the region's deepest sample: the annotation only names its region,
+    # and a sample far from the region's edges keeps naming it when the fitted contours move
+    # within their ribbons (an extremum on a plateau would be the plateau's first sample in
+    # scan order, on its edge)
+    cap_idx = deep[regs].astype(np.int64)
     r, cc = np.divmod(cap_idx, wp)
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
     cap_contour = innermost_enclosing_rows(
