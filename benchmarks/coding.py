@@ -16,10 +16,12 @@ every handle fitted on that grid, this measures the .isoph bytes of
     range          version 4's layout (the writer's default, compression "range"): version 3
                    and a handle shift per segment, which handles on the 1/64 grid do not use
 
-and then, encoded with the handles on coarse grids where their ribbon allows (the encoder's
-default, encoder.HANDLE_SHIFT), the bytes of
+and then, encoded with the handles on coarse grids where their ribbon allows
+(encoder.HANDLE_SHIFT), the bytes of
 
-    coarse handles version 4 (the encoder's and writer's defaults)
+    coarse handles   version 4, every joint at its crossing
+    joints on samples   ... and joints moved onto the 2x sample grid within their reach
+                     (encoder.ANCHOR_GRID; the encoder's and writer's defaults)
 
 and the render's PSNR / SSIMULACRA2 against the original at 1x (the decoder's defaults), all
 in one run so that every number comes from the same decoder. Then bytes per stream (zlib per
@@ -28,8 +30,8 @@ write / read times of dumps / loads.
 
     .venv/bin/python benchmarks/coding.py [--images ...] [--quants 64,32,16] [--out benchmarks/results]
 
-The encoder's QUANT and HANDLE_SHIFT are module constants; this script sets them (and the
-fitter's shrink ``_ROUNDING``) for each row and puts them back afterwards.
+The encoder's QUANT, HANDLE_SHIFT and ANCHOR_GRID are module constants; this script sets
+them (and the fitter's shrink ``_ROUNDING``) for each row and puts them back afterwards.
 """
 
 from __future__ import annotations
@@ -50,16 +52,17 @@ from isophote.format import isoph
 
 STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range v3", "range"]
 COARSE = "coarse handles"
+JOINTS = "joints on samples"
 
 
-def encode_at(img, quant: int, handle_shift: int = 0):
-    saved = encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT
+def encode_at(img, quant: int, handle_shift: int = 0, anchor_grid: float = 0.0):
+    saved = encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT, encoder.ANCHOR_GRID
     encoder.QUANT, encoder._ROUNDING = quant, 0.5 / quant * np.sqrt(2.0)
-    encoder.HANDLE_SHIFT = handle_shift
+    encoder.HANDLE_SHIFT, encoder.ANCHOR_GRID = handle_shift, anchor_grid
     try:
         return isophote.encode(img, preset="paper")
     finally:
-        encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT = saved
+        encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT, encoder.ANCHOR_GRID = saved
 
 
 def column_values(ch) -> dict:
@@ -161,7 +164,7 @@ def main(argv=None):
     rows = {}  # (step, quant) -> {image: bytes}
     quality = {}  # quant -> {image: (psnr, ssimulacra2, segments)}
     streams_cols, streams_range, streams_v2, streams_coarse, times = {}, {}, {}, {}, {}
-    coarse_quality = {}
+    coarse_quality, joints_quality, streams_joints = {}, {}, {}
     for q in quants:
         quality[q] = {}
         for name in names:
@@ -191,14 +194,16 @@ def main(argv=None):
                     t2 = time.perf_counter()
                     assert back.equals(vi)
                     times[(name, comp)] = (t1 - t0, t2 - t1, segs)
-                cv = encode_at(img, q, encoder.HANDLE_SHIFT)
-                cout = cv.render()
-                coarse_quality[name] = (metrics.psnr(img, cout), metrics.ssimulacra2(img, cout),
-                                        sum(c.n_segments for c in cv.channels))
-                steps[COARSE] = len(isoph.dumps(cv))
-                assert isoph.loads(isoph.dumps(cv)).equals(cv)
-                streams_coarse[name] = stream_bytes_range(
-                    range_bytes([isoph._checked_channel(c) for c in cv.channels], account=True)[1])
+                for step, grid, qual, streams in ((COARSE, 0.0, coarse_quality, streams_coarse),
+                                                  (JOINTS, encoder.ANCHOR_GRID, joints_quality, streams_joints)):
+                    cv = encode_at(img, q, encoder.HANDLE_SHIFT, grid)
+                    cout = cv.render()
+                    qual[name] = (metrics.psnr(img, cout), metrics.ssimulacra2(img, cout),
+                                  sum(c.n_segments for c in cv.channels))
+                    steps[step] = len(isoph.dumps(cv))
+                    assert isoph.loads(isoph.dumps(cv)).equals(cv)
+                    streams[name] = stream_bytes_range(
+                        range_bytes([isoph._checked_channel(c) for c in cv.channels], account=True)[1])
             for step, nbytes in steps.items():
                 rows.setdefault((step, q), {})[name] = nbytes
             p, s2, _ = quality[q][name]
@@ -220,12 +225,12 @@ def main(argv=None):
         "| step | QUANT | " + " | ".join(names) + " | mean x PNG | vs columns+zlib | mean PSNR dB | mean SSIMULACRA2 |",
         "|---|---|" + "---|" * len(names) + "---|---|---|---|",
     ]
-    ordered = [(s, q0) for s in STEPS] + [(COARSE, q0)] + [("range", q) for q in quants[1:]]
+    ordered = [(s, q0) for s in STEPS] + [(COARSE, q0), (JOINTS, q0)] + [("range", q) for q in quants[1:]]
     for step, q in ordered:
         r = rows[(step, q)]
         xpng = np.mean([r[n] / png[n] for n in names])
         rel = np.mean([r[n] / base[n] for n in names])
-        qual = coarse_quality if step == COARSE else quality[q]
+        qual = {COARSE: coarse_quality, JOINTS: joints_quality}.get(step, quality[q])
         mp = np.mean([qual[n][0] for n in names])
         ms = np.mean([qual[n][1] for n in names])
         lines.append(f"| {step} | {q} | " + " | ".join(f"{r[n]:,}" for n in names)
@@ -234,7 +239,13 @@ def main(argv=None):
               f"{COARSE}: the encoder puts each segment's handles on the coarsest grid, up to "
               f"2**{encoder.HANDLE_SHIFT} / {q0} px in the chord's frame, on which the segment stays in "
               "its ribbon; version 4 codes them divided by that grid. Segments: "
-              + ", ".join(f"{n} {coarse_quality[n][2]:,}" for n in names) + " (the same joints as above).", ""]
+              + ", ".join(f"{n} {coarse_quality[n][2]:,}" for n in names) + " (the same joints as above).",
+              "",
+              f"{JOINTS}: as {COARSE}, and each crossing that becomes a joint moves onto the nearer end of "
+              f"its grid edge (the {encoder.ANCHOR_GRID} px sample grid) where that lies within "
+              f"{encoder.ANCHOR_REACH} of its tolerance, no crossing lies between them and no crossing "
+              "of another level is nearer that sample; the anchor flags then code that coordinate "
+              "5 bits shorter. Segments: " + ", ".join(f"{n} {joints_quality[n][2]:,}" for n in names) + ".", ""]
 
     lines += [f"## Each encoder grid against QUANT {q0} (range coding)", "",
               "| QUANT | bytes | segments | PSNR change dB | SSIMULACRA2 change |", "|---|---|---|---|---|"]
@@ -257,20 +268,23 @@ def main(argv=None):
     lines += [f"## Bytes per stream, QUANT {q0} (all photographs)", "",
               "Columns: each column zlib-compressed on its own. Range: the coder's bit count per",
               "model (exact to a few bytes per channel), in version 2's layout and version 3's, and",
-              "version 4's with coarse handles.", "",
-              "| columns+zlib stream | bytes | range stream | v2 bytes | v3 bytes | v4 coarse handles bytes |",
-              "|---|---|---|---|---|---|"]
+              "version 4's with coarse handles, without and with joints on samples.", "",
+              "| columns+zlib stream | bytes | range stream | v2 bytes | v3 bytes | v4 coarse handles bytes "
+              "| v4 joints on samples bytes |",
+              "|---|---|---|---|---|---|---|"]
     cs = {k: sum(streams_cols[n][k] for n in names) for k in streams_cols[names[0]]}
     rs = {k: sum(streams_range[n][k] for n in names) for k in streams_range[names[0]]}
     r2 = {k: sum(streams_v2[n][k] for n in names) for k in streams_v2[names[0]]}
     r4 = {k: sum(streams_coarse[n][k] for n in names) for k in streams_coarse[names[0]]}
+    r5 = {k: sum(streams_joints[n][k] for n in names) for k in streams_joints[names[0]]}
     ck, rk = list(cs), list(rs)
     for i in range(max(len(ck), len(rk))):
         a = f"{ck[i]} | {cs[ck[i]]:,.0f}" if i < len(ck) else " | "
-        b = f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f} | {r4[rk[i]]:,.0f}" if i < len(rk) else " | | | "
+        b = (f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f} | {r4[rk[i]]:,.0f} | {r5[rk[i]]:,.0f}"
+             if i < len(rk) else " | | | | ")
         lines.append(f"| {a} | {b} |")
     lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(r2.values()):,.0f} | {sum(rs.values()):,.0f} "
-              f"| {sum(r4.values()):,.0f} |", ""]
+              f"| {sum(r4.values()):,.0f} | {sum(r5.values()):,.0f} |", ""]
 
     lines += [f"## Write / read time, QUANT {q0}", "", "| image | segments | zlib write s | zlib read s | range write s | range read s |",
               "|---|---|---|---|---|---|"]

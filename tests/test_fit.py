@@ -60,20 +60,23 @@ def joint_angles(chain, closed):
     return np.array(out)
 
 
-def check_chain(points, tol, closed, chain, bulge_eps=1e-9, samples=200):
+def check_chain(points, tol, closed, chain, bulge_eps=1e-9, samples=200, joints=None):
     """The fitter's guarantees, checked independently (``samples``: chain_distance's, more
-    for chains with very long segments, whose sparse samples overestimate distances)."""
+    for chains with very long segments, whose sparse samples overestimate distances;
+    ``joints``: where each point goes when it is a joint, the points themselves if None)."""
     assert chain.dtype == np.float64 and chain.ndim == 2 and chain.shape[1] == 2
     assert (len(chain) - 1) % 3 == 0 and len(chain) >= 4
     assert np.all(np.isfinite(chain))
+    joints = points if joints is None else joints
     if closed:
         assert np.array_equal(chain[-1], chain[0])
-        s = int(np.flatnonzero(np.all(points == chain[0], axis=1))[0])
+        s = int(np.flatnonzero(np.all(joints == chain[0], axis=1))[0])
         q = np.concatenate([np.roll(points, -s, axis=0), points[s : s + 1]])
         t = np.concatenate([np.roll(tol, -s), tol[s : s + 1]])
+        qj = np.concatenate([np.roll(joints, -s, axis=0), joints[s : s + 1]])
     else:
         assert np.array_equal(chain[0], points[0]) and np.array_equal(chain[-1], points[-1])
-        q, t = points, tol
+        q, t, qj = points, tol, joints
     # every point within its tolerance of the curve
     d = chain_distance(chain, points, samples)
     assert np.all(d <= tol * (1 + 1e-9) + 1e-12), (d / tol).max()
@@ -83,14 +86,14 @@ def check_chain(points, tol, closed, chain, bulge_eps=1e-9, samples=200):
     first, last = [0], [0]
     m = n_segments(chain)
     for g in range(1, m):
-        hit = np.flatnonzero(np.all(q[first[-1] + 1 : -1] == chain[3 * g], axis=1))
+        hit = np.flatnonzero(np.all(qj[first[-1] + 1 : -1] == chain[3 * g], axis=1))
         assert len(hit), "joint is not an input point"
         a = b = first[-1] + 1 + int(hit[0])
-        while b + 1 < len(q) - 1 and np.array_equal(q[b + 1], q[a]):
+        while b + 1 < len(q) - 1 and np.array_equal(qj[b + 1], qj[a]):
             b += 1
         first.append(a)
         last.append(b)
-    assert np.array_equal(chain[-1], q[-1])
+    assert np.array_equal(chain[-1], qj[-1])
     first.append(len(q) - 1)
     last.append(len(q) - 1)
     curve = sample_chain(chain)
@@ -274,6 +277,65 @@ def test_coarse_handles_stay_in_the_ribbon_and_on_their_grids():
             shifts.append(min(5, (low & -low).bit_length() - 1) if low else 5)
     shifts = np.array(shifts)
     assert np.mean(shifts >= 3) > 0.5, np.bincount(shifts)
+
+
+def grid_joints(pts, tol, closed, grid, reach=0.75):
+    """Where the anchor grid rule puts each point as a joint, written out point by point:
+    x onto the nearest multiple of grid if that is within reach * tol, then y if the move
+    in both stays within it; the ends of an open polyline stay."""
+    out = pts.copy()
+    for k in range(len(pts)):
+        if not closed and k in (0, len(pts) - 1):
+            continue
+        lim = reach * tol[k]
+        gx = np.floor(pts[k, 0] / grid + 0.5) * grid
+        gy = np.floor(pts[k, 1] / grid + 0.5) * grid
+        dx = gx - pts[k, 0] if abs(gx - pts[k, 0]) <= lim else 0.0
+        if dx:
+            out[k, 0] = gx
+        if math.hypot(dx, gy - pts[k, 1]) <= lim:
+            out[k, 1] = gy
+    return out
+
+
+def crossings_batch(seed, count):
+    """Random curves as the isoline tracer gives them: every point on a line of the 0.5 px
+    sample grid in one coordinate (the curve's crossings of those lines), ribbons 0.05-0.5."""
+    out = []
+    for pts, tol, closed in random_batch(seed, count):
+        k = np.arange(len(pts)) % 2
+        pts[np.arange(len(pts)), k] = np.round(pts[np.arange(len(pts)), k] * 2) / 2
+        out.append((pts, tol, closed))
+    return out
+
+
+def test_joints_move_onto_the_anchor_grid_within_reach():
+    """anchor_grid = 0.5: each joint is its point moved onto the grid in the coordinates
+    within 0.75 of its tolerance of it (the ends of open polylines stay), the chain keeps
+    every guarantee with those joints, joints on the sample grid in both coordinates become
+    common, and the kernel equals its twin."""
+    on_grid = [0, 0]
+    for pts, tol, closed in crossings_batch(21, 40):
+        joints = grid_joints(pts, tol, closed, 0.5)
+        moved = np.hypot(*(joints - pts).T)
+        assert np.all(moved <= 0.75 * tol + 1e-12)
+        for which, grid in enumerate((0.0, 0.5)):
+            chain = fit_polyline(pts, tol, closed, anchor_grid=grid)
+            check_chain(pts, tol, closed, chain, samples=2000, joints=joints if grid else None)
+            a = chain[:-1:3]
+            on_grid[which] += int(np.sum(np.all(a * 2 == np.floor(a * 2), axis=1)))
+            if grid:
+                ref = fit_polyline_ref(pts, tol, closed, math.cos(math.radians(20.0)), anchor_grid=grid,
+                                       reach=0.75 * tol)
+                np.testing.assert_allclose(chain, ref, rtol=1e-9, atol=1e-9)
+    assert on_grid[1] > 4 * on_grid[0] + 50, on_grid
+    with pytest.raises(ValueError):
+        fit_polyline(pts, tol, closed, anchor_grid=-0.5)
+    with pytest.raises(ValueError):
+        fit_many(pts, tol, [0, len(pts)], [closed], anchor_grid=float("nan"))
+    for bad in (1.5 * tol, -0.1 * tol, tol[:-1]):
+        with pytest.raises(ValueError):
+            fit_polyline(pts, tol, closed, anchor_grid=0.5, reach=bad)
 
 
 def wild_polyline(rng):

@@ -43,6 +43,14 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    reparameterisation step: the handles move little); a segment no grid fits keeps its
    handles. The file then codes those residuals divided by 2**sh.
 
+5. Joints on the anchor grid (``anchor_grid`` > 0; the encoder's 2x sample grid, 0.5 px):
+   a polyline point that becomes a joint is moved onto that grid in each coordinate that
+   lies within the point's ``reach`` of it (_joint_at; the ends of open polylines, shared
+   with the runs beside them, stay). Every fit and test above uses the moved
+   joints, so the guarantees hold for them. The file codes a coordinate on the sample grid
+   5 bits shorter (format/isoph.py, anchor flags), and crossings near a sample are common
+   where the ribbon is wide.
+
 Closed polylines are rotated to start at their sharpest turn and closed by repeating that
 point, then fitted as open ones; their closing joint is snapped last.
 """
@@ -92,10 +100,10 @@ QUANT = 64.0
 @njit(cache=True, nogil=True, error_model="numpy")
 def _lsq(q, w, i, j, u, c):
     """Least-squares inner controls of the span i..j for parameters u; writes c[0:4]."""
-    p0x = q[i, 0]
-    p0y = q[i, 1]
-    p3x = q[j, 0]
-    p3y = q[j, 1]
+    p0x = q[i, 2]
+    p0y = q[i, 3]
+    p3x = q[j, 2]
+    p3y = q[j, 3]
     a11 = 0.0
     a12 = 0.0
     a22 = 0.0
@@ -141,10 +149,10 @@ def _tdm(q, w, i, j, u, c, a):
     """One Gauss-Newton step of tangent distance minimisation for the inner controls c
     (updated in place), linearised at the foot parameters u on the current curve. a is a
     (4, 5) scratch array for the normal equations."""
-    p0x = q[i, 0]
-    p0y = q[i, 1]
-    p3x = q[j, 0]
-    p3y = q[j, 1]
+    p0x = q[i, 2]
+    p0y = q[i, 3]
+    p3x = q[j, 2]
+    p3y = q[j, 3]
     d0x = c[0] - p0x
     d0y = c[1] - p0y
     d1x = c[2] - c[0]
@@ -255,10 +263,10 @@ def _newton(q, w, ed, i, j, u, c, limit):
     the largest (|B(u[k]) - q[k]| / tol[k])^2 at the new parameters, stopping early (with
     the rest of u untouched) once it exceeds limit; notes each |B(u[k]) - q[k]|^2 in
     ed[k, 4] for _bulge_ok."""
-    p0x = q[i, 0]
-    p0y = q[i, 1]
-    p3x = q[j, 0]
-    p3y = q[j, 1]
+    p0x = q[i, 2]
+    p0y = q[i, 3]
+    p3x = q[j, 2]
+    p3y = q[j, 3]
     # first and second derivative coefficients
     d0x = c[0] - p0x
     d0y = c[1] - p0y
@@ -378,10 +386,10 @@ def _bulge_ok(q, ed, i, j, u, c):
     along the chord). Edges are searched outwards from the interval's own edge, after the
     edge that served the previous pair.
     """
-    p0x = q[i, 0]
-    p0y = q[i, 1]
-    p3x = q[j, 0]
-    p3y = q[j, 1]
+    p0x = q[i, 2]
+    p0y = q[i, 3]
+    p3x = q[j, 2]
+    p3y = q[j, 3]
     # |B''(t)| <= curv, so between samples delta apart in t the curve is within
     # curv * delta^2 / 8 of their chord
     ax = p0x - 2.0 * c[0] + c[2]
@@ -401,9 +409,16 @@ def _bulge_ok(q, ed, i, j, u, c):
             dy = s * s * (c[1] - p0y) + 2.0 * s * t * (c[3] - c[1]) + t * t * (p3y - c[3])
             if dx * ed[k, 0] + dy * ed[k, 1] < 0.0:
                 return False
-        # the chord bound (the span's end points lie on the curve)
-        e0 = ed[k, 4] if k > i else 0.0
-        e1 = ed[k + 1, 4] if k + 1 < j else 0.0
+        # the chord bound (the span's ends lie on the curve, at their joints: a joint's
+        # point error is its move onto the anchor grid)
+        if k > i:
+            e0 = ed[k, 4]
+        else:
+            e0 = (q[k, 2] - q[k, 0]) ** 2 + (q[k, 3] - q[k, 1]) ** 2
+        if k + 1 < j:
+            e1 = ed[k + 1, 4]
+        else:
+            e1 = (q[j, 2] - q[j, 0]) ** 2 + (q[j, 3] - q[j, 1]) ** 2
         slack = ed[k, 3] - curv * du * du / 8.0
         if slack >= 0.0 and max(e0, e1) <= slack * slack:
             continue
@@ -440,10 +455,10 @@ def _bulge_ok(q, ed, i, j, u, c):
 @njit(cache=True, nogil=True, error_model="numpy")
 def _straight(q, i, j, c):
     """Inner controls of the straight segment q[i]-q[j], at its thirds."""
-    c[0] = q[i, 0] + (q[j, 0] - q[i, 0]) / 3.0
-    c[1] = q[i, 1] + (q[j, 1] - q[i, 1]) / 3.0
-    c[2] = q[i, 0] + 2.0 * (q[j, 0] - q[i, 0]) / 3.0
-    c[3] = q[i, 1] + 2.0 * (q[j, 1] - q[i, 1]) / 3.0
+    c[0] = q[i, 2] + (q[j, 2] - q[i, 2]) / 3.0
+    c[1] = q[i, 3] + (q[j, 3] - q[i, 3]) / 3.0
+    c[2] = q[i, 2] + 2.0 * (q[j, 2] - q[i, 2]) / 3.0
+    c[3] = q[i, 3] + 2.0 * (q[j, 3] - q[i, 3]) / 3.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -495,8 +510,8 @@ def _check_fixed(q, ed, w, i, j, u, c, steps=NEWTON_STEPS):
 def _snap_joint(q, ed, w, ends, ctrl, u, ut, a, b, cos_snap, ca, cb):
     """Snap the joint between segment a (incoming) and b (outgoing) if it qualifies and
     both segments still fit. ut, ca, cb are scratch."""
-    px = q[ends[a + 1], 0]
-    py = q[ends[a + 1], 1]
+    px = q[ends[a + 1], 2]
+    py = q[ends[a + 1], 3]
     ix = px - ctrl[a, 2]
     iy = py - ctrl[a, 3]
     ox = ctrl[b, 0] - px
@@ -545,10 +560,10 @@ def _handle_frame(q, i, j, c):
     the anchors rounded to 1/QUANT px (ax, ay, nx, ny), the thirds of their chord (tx, ty),
     the chord frame (sg, p, qq) and the handles' residuals in it (ha, hc, ra, rc), in
     1/QUANT px units."""
-    ax = _round(q[i, 0] * QUANT)
-    ay = _round(q[i, 1] * QUANT)
-    nx = _round(q[j, 0] * QUANT)
-    ny = _round(q[j, 1] * QUANT)
+    ax = _round(q[i, 2] * QUANT)
+    ay = _round(q[i, 3] * QUANT)
+    nx = _round(q[j, 2] * QUANT)
+    ny = _round(q[j, 3] * QUANT)
     dx = nx - ax
     dy = ny - ay
     sg, p, qq = _frame(dx, dy)
@@ -690,16 +705,42 @@ def _start_index(pts, o, n):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen=0):
+def _joint_at(q, reach, k, grid):
+    """Where point k goes when it is a joint, in q[k, 2:4]: each coordinate within reach[k]
+    of a multiple of grid (> 0) moves onto it, x first, y if the move in both stays within
+    that reach; the point stays where it is when grid is 0."""
+    x = q[k, 0]
+    y = q[k, 1]
+    q[k, 2] = x
+    q[k, 3] = y
+    if grid > 0.0:
+        lim = reach[k]
+        rx = math.floor(x / grid + 0.5) * grid
+        dx = rx - x
+        if abs(dx) <= lim:
+            q[k, 2] = rx
+        else:
+            dx = 0.0
+        ry = math.floor(y / grid + 0.5) * grid
+        dy = ry - y
+        if dx * dx + dy * dy <= lim * lim:
+            q[k, 3] = ry
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen, anchor_grid, reach):
     """Fit every polyline; returns (chains (P, 2), chain_offsets (K+1,) int64). coarsen > 0
-    puts the handles on the file's coarse grids, shifts up to coarsen (_coarsen)."""
+    puts the handles on the file's coarse grids, shifts up to coarsen (_coarsen);
+    anchor_grid > 0 moves each joint onto that grid within its point's reach (_joint_at,
+    step 5)."""
     npoly = offsets.shape[0] - 1
     nmax = 0
     for p in range(npoly):
         nmax = max(nmax, offsets[p + 1] - offsets[p])
     size = nmax + 1
-    q = np.empty((size, 2))
+    q = np.empty((size, 4))  # the points, and where each goes as a joint (_joint_at)
     tq = np.empty(size)
+    rq = np.empty(size)
     wq = np.empty(size)
     ed = np.empty((size, 5))
     cum = np.empty(size)
@@ -729,18 +770,22 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen=0):
                 q[k, 0] = points[o + r, 0]
                 q[k, 1] = points[o + r, 1]
                 tq[k] = tol[o + r]
+                rq[k] = reach[o + r]
             q[n, 0] = q[0, 0]
             q[n, 1] = q[0, 1]
             tq[n] = tq[0]
+            rq[n] = rq[0]
             nn = n + 1
         else:
             for k in range(n):
                 q[k, 0] = points[o + k, 0]
                 q[k, 1] = points[o + k, 1]
                 tq[k] = tol[o + k]
+                rq[k] = reach[o + k]
             nn = n
         for k in range(nn):
             wq[k] = 1.0 / (tq[k] * tq[k])
+            _joint_at(q, rq, k, anchor_grid if closed[p] or 0 < k < nn - 1 else 0.0)
         _edges(q, tq, nn, ed)
         m = _fit_open(
             q, ed, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb, coarsen
@@ -754,16 +799,16 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen=0):
                 grown[r, 0] = out[r, 0]
                 grown[r, 1] = out[r, 1]
             out = grown
-        out[used, 0] = q[0, 0]
-        out[used, 1] = q[0, 1]
+        out[used, 0] = q[0, 2]
+        out[used, 1] = q[0, 3]
         for g in range(m):
             r = used + 1 + 3 * g
             out[r, 0] = ctrl[g, 0]
             out[r, 1] = ctrl[g, 1]
             out[r + 1, 0] = ctrl[g, 2]
             out[r + 1, 1] = ctrl[g, 3]
-            out[r + 2, 0] = q[ends[g + 1], 0]
-            out[r + 2, 1] = q[ends[g + 1], 1]
+            out[r + 2, 0] = q[ends[g + 1], 2]
+            out[r + 2, 1] = q[ends[g + 1], 3]
         used = need
         chain_offsets[p + 1] = used
     chains = np.empty((used, 2))
@@ -792,11 +837,11 @@ def _eval_ref(p0, c, p3, t):
 
 
 def _lsq_ref(q, tol, i, j, u):
-    p0, p3 = q[i], q[j]
+    p0, p3 = q[i, 2:], q[j, 2:]
     t = u[i + 1 : j]
     b0, b1, b2, b3 = _bernstein_ref(t)
     w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])  # the kernels' w
-    r = q[i + 1 : j] - b0[:, None] * p0 - b3[:, None] * p3
+    r = q[i + 1 : j, :2] - b0[:, None] * p0 - b3[:, None] * p3
     a11 = np.sum(w * b1 * b1)
     a12 = np.sum(w * b1 * b2)
     a22 = np.sum(w * b2 * b2)
@@ -816,7 +861,7 @@ def _lsq_ref(q, tol, i, j, u):
 
 
 def _tdm_ref(q, tol, i, j, u, c):
-    p0, p3 = q[i], q[j]
+    p0, p3 = q[i, 2:], q[j, 2:]
     t = u[i + 1 : j]
     s = 1.0 - t
     b0, b1, b2, b3 = _bernstein_ref(t)
@@ -833,7 +878,7 @@ def _tdm_ref(q, tol, i, j, u, c):
     m = TANGENTIAL * np.eye(2) + (1.0 - TANGENTIAL) * nn
     m[~ok] = np.eye(2)
     w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])
-    r = q[i + 1 : j] - b0[:, None] * p0 - b3[:, None] * p3
+    r = q[i + 1 : j, :2] - b0[:, None] * p0 - b3[:, None] * p3
     basis = np.stack([b1, b2], axis=1)  # (k, 2)
     a = np.einsum("k,ka,kb,kxy->axby", w, basis, basis, m).reshape(4, 4)
     rhs = np.einsum("k,ka,kxy,ky->ax", w, basis, m, r).reshape(4)
@@ -846,17 +891,17 @@ def _tdm_ref(q, tol, i, j, u, c):
 def _point_err_ref(q, tol, i, j, u, c):
     if j - i < 2:
         return 0.0
-    d = _eval_ref(q[i], c, q[j], u[i + 1 : j]) - q[i + 1 : j]
+    d = _eval_ref(q[i, 2:], c, q[j, 2:], u[i + 1 : j]) - q[i + 1 : j, :2]
     w = 1.0 / (tol[i + 1 : j] * tol[i + 1 : j])
     return float(np.max((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) * w))
 
 
 def _newton_ref(q, i, j, u, c):
-    p0, p3 = q[i], q[j]
+    p0, p3 = q[i, 2:], q[j, 2:]
     cc = np.array([[c[0], c[1]], [c[2], c[3]]])
     t = u[i + 1 : j].copy()
     s = 1.0 - t
-    d = _eval_ref(p0, c, p3, t) - q[i + 1 : j]
+    d = _eval_ref(p0, c, p3, t) - q[i + 1 : j, :2]
     d0, d1, d2 = cc[0] - p0, cc[1] - cc[0], p3 - cc[1]
     g = 3.0 * ((s * s)[:, None] * d0 + (2.0 * s * t)[:, None] * d1 + (t * t)[:, None] * d2)
     h = 6.0 * (s[:, None] * (d1 - d0) + t[:, None] * (d2 - d1))
@@ -869,7 +914,7 @@ def _newton_ref(q, i, j, u, c):
 
 
 def _bulge_ok_ref(q, tol, i, j, u, c):
-    p0, p3, c1, c2 = q[i], q[j], np.array(c[:2]), np.array(c[2:])
+    p0, p3, c1, c2 = q[i, 2:], q[j, 2:], np.array(c[:2]), np.array(c[2:])
     sec = np.array([p0 - 2.0 * c1 + c2, c1 - 2.0 * c2 + p3])
     curv = 6.0 * np.sqrt(np.max(sec[:, 0] * sec[:, 0] + sec[:, 1] * sec[:, 1]))
     tl = np.maximum(tol[i:j], tol[i + 1 : j + 1])  # per edge (= per interval)
@@ -877,7 +922,7 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     need = du * np.sqrt(curv / tl)
     ns = np.where(need > 1.0, np.minimum(need, MAX_SAMPLES).astype(np.int64), 1)
     margin = curv * (du / (ns + 1)) ** 2 / 8.0
-    a, e = q[i:j], q[i + 1 : j + 1] - q[i:j]
+    a, e = q[i:j, :2], q[i + 1 : j + 1, :2] - q[i:j, :2]
     # no backtracking at the inner samples u[k] + du[k] * m / (ns[k] + 1), m = 1 .. ns[k]:
     # B'(t) . edge >= 0
     k = np.repeat(np.arange(j - i), ns)
@@ -894,8 +939,10 @@ def _bulge_ok_ref(q, tol, i, j, u, c):
     # the chord bound: the curve within curv du^2 / 8 of the chord between its interval's
     # ends, the chord within the larger of their point errors of edge k
     e2 = np.zeros(j - i + 1)
+    mv = q[[i, j], 2:] - q[[i, j], :2]  # the joints' moves onto the anchor grid
+    e2[[0, -1]] = mv[:, 0] ** 2 + mv[:, 1] ** 2
     if j - i > 1:
-        dd = _eval_ref(p0, c, p3, u[i + 1 : j]) - q[i + 1 : j]
+        dd = _eval_ref(p0, c, p3, u[i + 1 : j]) - q[i + 1 : j, :2]
         e2[1:-1] = dd[:, 0] * dd[:, 0] + dd[:, 1] * dd[:, 1]
     slack = tl - curv * du * du / 8.0
     sampled = np.flatnonzero(~((slack >= 0.0) & (np.maximum(e2[:-1], e2[1:]) <= slack * slack)))
@@ -927,7 +974,7 @@ def _fit_span_ref(q, tol, cum, i, j, u):
     """Controls (4,) of the span i..j, or None when it does not fit; sets u[i..j]."""
     if j == i + 1:
         u[i], u[j] = 0.0, 1.0
-        a, b = q[i], q[j]
+        a, b = q[i, 2:], q[j, 2:]
         return np.array([a[0] + (b[0] - a[0]) / 3.0, a[1] + (b[1] - a[1]) / 3.0,
                          a[0] + 2.0 * (b[0] - a[0]) / 3.0, a[1] + 2.0 * (b[1] - a[1]) / 3.0])
     length = cum[j] - cum[i]
@@ -957,7 +1004,7 @@ def _check_fixed_ref(q, tol, i, j, u, c, steps=NEWTON_STEPS):
 
 
 def _snap_joint_ref(q, tol, ends, ctrl, u, a, b, cos_snap):
-    p = q[ends[a + 1]]
+    p = q[ends[a + 1], 2:]
     din = p - ctrl[a][2:]
     dout = ctrl[b][:2] - p
     li, lo = np.sqrt(din @ din), np.sqrt(dout @ dout)
@@ -991,8 +1038,8 @@ def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
         if j - i < 2:
             continue
         c = ctrl[g]
-        a = [rnd(q[i, 0] * QUANT), rnd(q[i, 1] * QUANT)]
-        n = [rnd(q[j, 0] * QUANT), rnd(q[j, 1] * QUANT)]
+        a = [rnd(q[i, 2] * QUANT), rnd(q[i, 3] * QUANT)]
+        n = [rnd(q[j, 2] * QUANT), rnd(q[j, 3] * QUANT)]
         frame = chord_frame(n[0] - a[0], n[1] - a[1])
         t = [rnd3(n[0] - a[0]), rnd3(n[1] - a[1])]
         h = to_frame(frame, rnd(c[0] * QUANT) - a[0] - t[0], rnd(c[1] * QUANT) - a[1] - t[1])
@@ -1013,9 +1060,10 @@ def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
 
 
 def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
-    """(ends, ctrl) of the chain fitted to q (closed by repetition when `closed`)."""
+    """(ends, ctrl) of the chain fitted to q (closed by repetition when `closed`); q is
+    (n, 4): the points, and where each goes as a joint (_joints_ref)."""
     n = len(q)
-    cum = np.concatenate([[0.0], np.cumsum(np.sqrt(np.sum(np.diff(q, axis=0) ** 2, axis=1)))])
+    cum = np.concatenate([[0.0], np.cumsum(np.sqrt(np.sum(np.diff(q[:, :2], axis=0) ** 2, axis=1)))])
     u = np.zeros(n)
     ends, ctrl = [0], []
     i, guess = 0, FIRST_GUESS
@@ -1056,10 +1104,29 @@ def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
     return ends, ctrl
 
 
-def fit_polyline_ref(points, tol, closed, cos_snap, coarsen=0):
-    """Reference twin of fit_many_kernel for one polyline: the (1+3m, 2) chain."""
+def _joints_ref(q, reach, closed, grid):
+    """Twin of _joint_at for every point: q (n, 2) becomes (n, 4)."""
+    qa = q.copy()
+    if grid > 0.0:
+        lim = reach
+        r = np.floor(q / grid + 0.5) * grid
+        d = r - q
+        mx = np.abs(d[:, 0]) <= lim
+        d[~mx, 0] = 0.0
+        my = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] <= lim * lim
+        qa[mx, 0] = r[mx, 0]
+        qa[my, 1] = r[my, 1]
+        if not closed:
+            qa[[0, -1]] = q[[0, -1]]
+    return np.concatenate([q, qa], axis=1)
+
+
+def fit_polyline_ref(points, tol, closed, cos_snap, coarsen=0, anchor_grid=0.0, reach=None):
+    """Reference twin of fit_many_kernel for one polyline: the (1+3m, 2) chain (reach
+    None: 0, every joint stays at its point)."""
     points = np.asarray(points, dtype=np.float64)
     tol = np.asarray(tol, dtype=np.float64)
+    reach = np.zeros_like(tol) if reach is None else np.asarray(reach, dtype=np.float64)
     if closed:
         prev = np.roll(points, 1, axis=0)
         nxt = np.roll(points, -1, axis=0)
@@ -1069,12 +1136,15 @@ def fit_polyline_ref(points, tol, closed, cos_snap, coarsen=0):
         s = int(np.argmax(ang))
         q = np.roll(points, -s, axis=0)
         t = np.roll(tol, -s)
+        rc = np.roll(reach, -s)
         q = np.concatenate([q, q[:1]])
         t = np.concatenate([t, t[:1]])
+        rc = np.concatenate([rc, rc[:1]])
     else:
-        q, t = points.copy(), tol.copy()
+        q, t, rc = points.copy(), tol.copy(), reach
+    q = _joints_ref(q, rc, closed, anchor_grid)
     ends, ctrl = fit_open_ref(q, t, closed, cos_snap, coarsen)
-    rows = [q[0]]
+    rows = [q[0, 2:]]
     for g, c in enumerate(ctrl):
-        rows += [c[:2], c[2:], q[ends[g + 1]]]
+        rows += [c[:2], c[2:], q[ends[g + 1], 2:]]
     return np.array(rows, dtype=np.float64)

@@ -12,11 +12,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .._kernels.anchors import joint_reach
 from ..colour import rgb_to_yuv
 from ..errors import InputError
 from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
-from .fit import fit_many
+from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
 from .levels import channel_levels
@@ -33,6 +34,11 @@ QUANT = 64  # control points and cap values are stored on a 1/64 grid (format/is
 # (astronaut, paper, processor time; 41 % with two Newton steps per check instead of one,
 # which saved 0.1 % of the bytes).
 HANDLE_SHIFT = 5
+# Joints move onto the 2x sample grid (0.5 px) where their crossing lies within
+# ANCHOR_REACH of its tolerance of the nearer end S of its grid edge, no crossing lies
+# between them, and no crossing of another level is nearer S (_joint_reach; _kernels/fit.py,
+# step 5): the file codes such a coordinate 5 bits shorter. ANCHOR_REACH: encoder/fit.py.
+ANCHOR_GRID = 0.5
 MAX_PIXELS = 100_000_000
 
 
@@ -134,6 +140,7 @@ def fit_isolines(iso: Isolines, snap: float):
     offs = iso.offsets
     n_seg = np.diff(offs)
     tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
+    reach = _joint_reach(iso, tol)
     seg_loop = np.repeat(np.arange(n_loops), n_seg)
     has_border = np.zeros(n_loops, bool)
     has_border[seg_loop[iso.border]] = True
@@ -184,6 +191,8 @@ def fit_isolines(iso: Isolines, snap: float):
         piece_closed,
         snap,
         HANDLE_SHIFT,
+        ANCHOR_GRID,
+        np.concatenate([reach[in_closed], reach[fit_idx]]),
     )
     line_r = np.flatnonzero(run_line)
     lines, l_off = _line_chains(iso.points[rot[_ranges(run_start[line_r], run_pts[line_r])]],
@@ -219,6 +228,17 @@ def fit_isolines(iso: Isolines, snap: float):
     line_k = run_line[keep]
     border[_ranges(run_seg0[line_k], run_segs[line_k])] = True
     return points, offsets, border
+
+
+def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
+    """How far each crossing may move onto the sample grid when it becomes a joint:
+    ANCHOR_REACH of its tolerance where the nearer end S of its grid edge lies within that
+    and no other crossing on the edge lies between it and S (moving there would jump it);
+    of the crossings near S only those of the nearest one's level (contours of two levels
+    never meet at S); 0 elsewhere (_kernels/anchors.py)."""
+    level = np.repeat(iso.level, np.diff(iso.offsets)).astype(np.int64)
+    return joint_reach(iso.points, iso.below.astype(np.int64), iso.above.astype(np.int64), level,
+                       tol, iso.values.shape[1], iso.values.size, ANCHOR_REACH)
 
 
 def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:

@@ -18,7 +18,9 @@ polyline point k and every point x of the returned chain:
 * between two polyline points the curve runs the way of their edge (checked at samples),
   so no segment ties a loop inside the ribbon;
 * open chains start at ``points[0]`` and end at ``points[-1]``; closed chains start and end
-  at the same input point (``chain[-1] == chain[0]``); every joint is an input point;
+  at the same joint (``chain[-1] == chain[0]``); every joint is an input point, or with
+  ``anchor_grid`` > 0 one moved onto that grid by at most its reach (<= its tolerance;
+  the joint is then where the tests above place the curve's end);
 * output is finite and deterministic (same input, same bytes).
 
 The chain layout and the coordinate convention are those of :mod:`isophote.model`.
@@ -46,6 +48,28 @@ def _cos_snap(snap: float) -> float:
     return math.cos(math.radians(snap)) if snap > 0.0 else 1.0
 
 
+def _anchor_grid(grid: float) -> float:
+    grid = float(grid)
+    if not (math.isfinite(grid) and grid >= 0.0):
+        raise ValueError(f"anchor_grid must be finite and >= 0, got {grid}")
+    return grid
+
+
+# How far a joint may move onto the anchor grid when no reach is given, in tolerances.
+ANCHOR_REACH = 0.75
+
+
+def _reach(reach, tol: np.ndarray) -> np.ndarray:
+    if reach is None:
+        return ANCHOR_REACH * tol
+    reach = np.ascontiguousarray(reach, dtype=np.float64)
+    if reach.shape != tol.shape:
+        raise ValueError(f"reach must have shape {tol.shape}, got {reach.shape}")
+    if not np.all((reach >= 0.0) & (reach <= tol)):
+        raise ValueError("reach must lie in [0, tol]")
+    return reach
+
+
 def _check_points(points, tol):
     points = np.ascontiguousarray(points, dtype=np.float64)
     tol = np.ascontiguousarray(tol, dtype=np.float64)
@@ -60,7 +84,7 @@ def _check_points(points, tol):
     return points, tol
 
 
-def fit_polyline(points, tol, closed, snap=20.0, coarsen=0):
+def fit_polyline(points, tol, closed, snap=20.0, coarsen=0, anchor_grid=0.0, reach=None):
     """Fit a Bezier chain with few segments inside the error ribbon of a polyline.
 
     Parameters
@@ -75,12 +99,22 @@ def fit_polyline(points, tol, closed, snap=20.0, coarsen=0):
         Whether the polyline is a loop.
     snap : float, optional
         G1 snapping threshold in degrees, in [0, 90); 0 disables snapping.
+    coarsen : int, optional
+        > 0 puts each segment's handles on the coarsest of the file's handle grids (up to
+        2**coarsen / 64 px, in the chord's frame) on which it still fits; 0 leaves them.
+    anchor_grid : float, optional
+        > 0 moves each joint onto the multiples of ``anchor_grid`` px in every coordinate
+        within its point's ``reach`` of one (not the ends of an open polyline); 0 leaves
+        the joints at their points.
+    reach : (n,) float64 array_like, optional
+        How far each point may move as a joint, in [0, tol]; None: ``ANCHOR_REACH * tol``.
 
     Returns
     -------
     chain : (1 + 3m, 2) float64 ndarray
         ``P0, C0a, C0b, P1, ..., Pm`` with m >= 1. Open: ``P0 == points[0]`` and
-        ``Pm == points[-1]``. Closed: ``Pm == P0``, an input point (the sharpest turn).
+        ``Pm == points[-1]``. Closed: ``Pm == P0``, the sharpest turn's point (moved onto
+        the anchor grid if it may be).
 
     Notes
     -----
@@ -109,12 +143,13 @@ def fit_polyline(points, tol, closed, snap=20.0, coarsen=0):
     if n < (3 if closed else 2):
         raise ValueError(f"a {'closed' if closed else 'open'} polyline needs at least "
                          f"{3 if closed else 2} points, got {n}")
-    chains, _ = fit_many_kernel(points, tol, np.array([0, n], np.int64),
-                                np.array([closed]), _cos_snap(snap), int(coarsen))
+    chains, _ = fit_many_kernel(points, tol, np.array([0, n], np.int64), np.array([closed]),
+                                _cos_snap(snap), int(coarsen), _anchor_grid(anchor_grid),
+                                _reach(reach, tol))
     return chains
 
 
-def fit_many(points, tol, offsets, closed, snap=20.0, coarsen=0):
+def fit_many(points, tol, offsets, closed, snap=20.0, coarsen=0, anchor_grid=0.0, reach=None):
     """Fit many polylines at once; equal to :func:`fit_polyline` on each.
 
     Large batches are fitted in parallel: groups of consecutive polylines with about equal
@@ -132,8 +167,7 @@ def fit_many(points, tol, offsets, closed, snap=20.0, coarsen=0):
         Non-decreasing, ``offsets[0] == 0`` and ``offsets[-1] == N``.
     closed : (K,) bool array_like
         Whether each polyline is a loop (given without its first point repeated).
-    snap : float, optional
-        G1 snapping threshold in degrees, in [0, 90); 0 disables snapping.
+    snap, coarsen, anchor_grid, reach : optional, as :func:`fit_polyline` (reach (N,)).
 
     Returns
     -------
@@ -159,8 +193,10 @@ def fit_many(points, tol, offsets, closed, snap=20.0, coarsen=0):
     cos_snap = _cos_snap(snap)
     workers = _workers()
     coarsen = int(coarsen)
+    grid = _anchor_grid(anchor_grid)
+    reach = _reach(reach, tol)
     if workers < 2 or points.shape[0] < PARALLEL_POINTS:
-        return fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen)
+        return fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen, grid, reach)
     # groups of consecutive polylines, about equal in points, several per thread so that
     # a thread that finishes early takes another
     cuts = np.searchsorted(offsets, np.linspace(0, points.shape[0], 4 * workers + 1)[1:-1])
@@ -169,7 +205,8 @@ def fit_many(points, tol, offsets, closed, snap=20.0, coarsen=0):
     def part(k):
         o = offsets[bounds[k] : bounds[k + 1] + 1]
         return fit_many_kernel(points[o[0] : o[-1]], tol[o[0] : o[-1]], o - o[0],
-                               closed[bounds[k] : bounds[k + 1]], cos_snap, coarsen)
+                               closed[bounds[k] : bounds[k + 1]], cos_snap, coarsen, grid,
+                               reach[o[0] : o[-1]])
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
         parts = list(pool.map(part, range(len(bounds) - 1)))
