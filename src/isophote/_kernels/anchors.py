@@ -1,10 +1,12 @@
 """Which isoline crossings may become joints on the sample grid (kernel + NumPy twin).
 
-Used by :mod:`isophote.encoder` (its ``_joint_reach``), which documents the rule: a crossing
-may move onto the nearer end S of its grid edge when S lies within ``frac`` of its tolerance,
-no other crossing of that edge lies between it and S, and no crossing of another level is
-nearer S (then the first in point order among equals). Grid samples are flat indices of the
-padded grid (``wp`` samples a row; sample (r, c) sits at ((c - 1) / 2, (r - 1) / 2) px).
+Used by :mod:`isophote.encoder` (its ``_joint_reach``). A crossing may move onto the nearer
+end S of its grid edge when S lies within ``frac`` of its tolerance and inside the image (not
+on its frame, where the contour would touch the border), no other crossing of that edge lies
+between it and S, no crossing of another level is nearer S (then the first in point order
+among equals), and at most PER_LOOP crossings of its loop lie nearer S (so no loop shrinks
+onto a sample). Grid samples are flat indices of the padded grid (``wp`` samples a row;
+sample (r, c) sits at ((c - 1) / 2, (r - 1) / 2) px).
 """
 
 from __future__ import annotations
@@ -12,9 +14,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+# At most this many crossings of one loop move onto one sample: two are a corner the loop
+# cuts at the sample; four would shrink a loop round the sample onto it (area 0; a perspective
+# warp of astronaut turned such a loop inside out and lost 1 dB).
+PER_LOOP = 2
+
 
 @njit(cache=True, nogil=True)
-def joint_reach(points, below, above, level, tol, wp, size, frac):
+def joint_reach(points, below, above, level, loop, tol, wp, size, frac):
     """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
     n = points.shape[0]
     # per grid edge (its lower sample and direction), its crossings nearest either end; per
@@ -37,30 +44,47 @@ def joint_reach(points, below, above, level, tol, wp, size, frac):
             first[e] = k
         if last[e] < 0 or a > along[last[e]]:
             last[e] = k
-    best = np.full(size, -1, np.int32)
-    reach = np.zeros(n)
-    for k in range(n):
+    # the candidates, chained per sample (head, nxt), and each one's sample
+    head = np.full(size, -1, np.int32)
+    nxt = np.full(n, -1, np.int32)
+    near = np.full(n, -1, np.int64)
+    hp = size // wp
+    for k in range(n - 1, -1, -1):  # chains in point order
         lo = min(below[k], above[k])
         hi = max(below[k], above[k])
         a = along[k]
         e = 2 * lo + (1 if hi - lo != 1 else 0)
         to_lo = a == dist[k]  # S is the edge's lower sample
         end = along[first[e]] if to_lo else along[last[e]]
-        if dist[k] <= frac * tol[k] and a == end:
-            reach[k] = 1.0  # a candidate, for now
-            s = lo if to_lo else hi
-            if best[s] < 0 or dist[k] < dist[best[s]]:
-                best[s] = k
+        s = lo if to_lo else hi
+        r = s // wp
+        inside = 1 < r < hp - 2 and 1 < s - r * wp < wp - 2
+        if dist[k] <= frac * tol[k] and a == end and inside:
+            near[k] = s
+            nxt[k] = head[s]
+            head[s] = k
+    reach = np.zeros(n)
     for k in range(n):
-        if reach[k] > 0.0:
-            lo = min(below[k], above[k])
-            hi = max(below[k], above[k])
-            s = lo if along[k] == dist[k] else hi
-            reach[k] = frac * tol[k] if level[k] == level[best[s]] else 0.0
+        s = near[k]
+        if s < 0:
+            continue
+        # k moves if at most one of the sample's candidates of its loop comes before it
+        # (nearer, then first), and its level is the level of the sample's nearest candidate
+        best = head[s]
+        before = 0
+        q = head[s]
+        while q >= 0:
+            if dist[q] < dist[best]:
+                best = q
+            if loop[q] == loop[k] and (dist[q] < dist[k] or (dist[q] == dist[k] and q < k)):
+                before += 1
+            q = nxt[q]
+        if before < PER_LOOP and level[k] == level[best]:
+            reach[k] = frac * tol[k]
     return reach
 
 
-def joint_reach_ref(points, below, above, level, tol, wp, size, frac):
+def joint_reach_ref(points, below, above, level, loop, tol, wp, size, frac):
     """NumPy twin of :func:`joint_reach`."""
     n = points.shape[0]
 
@@ -81,14 +105,27 @@ def joint_reach_ref(points, below, above, level, tol, wp, size, frac):
     last = np.full_like(first, -np.inf)
     np.minimum.at(first, edge, along)
     np.maximum.at(last, edge, along)
-    ok = (dist <= frac * tol) & np.where(to_lo, along == first[edge], along == last[edge])
-    # per sample, the level of the nearest candidate (then the first)
+    r, c = np.divmod(near, wp)
+    inside = (r > 1) & (r < size // wp - 2) & (c > 1) & (c < wp - 2)
+    ok = (dist <= frac * tol) & np.where(to_lo, along == first[edge], along == last[edge]) & inside
+    # per sample, the level of the nearest candidate (then the first); per sample and loop,
+    # the nearest candidate (then the first)
     cand = np.flatnonzero(ok)
     order = cand[np.lexsort((cand, dist[cand], near[cand]))]
     start = np.ones(order.shape[0], bool)
     start[1:] = near[order[1:]] != near[order[:-1]]
     lv = level[order]
-    keep = lv == lv[start][np.cumsum(start) - 1]
+    same_level = lv == lv[start][np.cumsum(start) - 1]
+    order2 = cand[np.lexsort((cand, dist[cand], loop[cand], near[cand]))]
+    group = np.ones(order2.shape[0], bool)
+    group[1:] = (near[order2[1:]] != near[order2[:-1]]) | (loop[order2[1:]] != loop[order2[:-1]])
+    pos = np.arange(order2.shape[0])
+    rank = pos - np.maximum.accumulate(np.where(group, pos, 0))
+    keep = np.zeros(n, bool)
+    keep[order[same_level]] = True
+    nearest = np.zeros(n, bool)
+    nearest[order2[rank < PER_LOOP]] = True
+    keep &= nearest
     reach = np.zeros(n)
-    reach[order[keep]] = frac * tol[order[keep]]
+    reach[keep] = frac * tol[keep]
     return reach

@@ -235,9 +235,12 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     ANCHOR_REACH of its tolerance where the nearer end S of its grid edge lies within that
     and no other crossing on the edge lies between it and S (moving there would jump it);
     of the crossings near S only those of the nearest one's level (contours of two levels
-    never meet at S); 0 elsewhere (_kernels/anchors.py)."""
-    level = np.repeat(iso.level, np.diff(iso.offsets)).astype(np.int64)
-    return joint_reach(iso.points, iso.below.astype(np.int64), iso.above.astype(np.int64), level,
+    never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
+    onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
+    counts = np.diff(iso.offsets)
+    level = np.repeat(iso.level, counts).astype(np.int64)
+    loop = np.repeat(np.arange(counts.shape[0]), counts)
+    return joint_reach(iso.points, iso.below.astype(np.int64), iso.above.astype(np.int64), level, loop,
                        tol, iso.values.shape[1], iso.values.size, ANCHOR_REACH)
 
 
