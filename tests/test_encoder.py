@@ -797,3 +797,21 @@ def sample_chain_closed(chain, per=32):
         out.append((1 - t) ** 3 * p0 + 3 * (1 - t) ** 2 * t * c0 + 3 * (1 - t) * t * t * c1 + t**3 * p1)
     return np.vstack(out)
 
+
+def test_cap_values_lie_on_half_the_input_error():
+    """Cap values are rounded to half the input's error, on the file's 1/64 value grid:
+    quarter levels for 8-bit samples, 1/64 for 16-bit ones, whatever a noise option says."""
+    from isophote.encoder import QUANT, cap_value_step
+
+    assert cap_value_step(0.5) == 0.25
+    assert cap_value_step(0.5 / 257.0) == 1.0 / QUANT
+    assert cap_value_step(1.3) == 41.0 / QUANT  # floor(0.65 * 64) / 64
+    img = skimage.data.camera()[100:164, 200:264]
+    for image, step in ((img, 0.25), (img.astype(np.uint16) * 257, 1.0 / QUANT)):
+        ch = isophote.encode(image, preset="balanced").channels[0]
+        assert len(ch.cap_value) > 10
+        assert np.array_equal(ch.cap_value, np.round(ch.cap_value / step) * step)
+        on_quarters = np.array_equal(ch.cap_value, np.round(ch.cap_value * 4) / 4)
+        assert on_quarters == (step == 0.25)  # 16-bit caps keep their finer digits
+    ch = isophote.encode(img, preset="balanced", noise=1.3).channels[0]
+    assert np.allclose(ch.cap_value / (41.0 / QUANT), np.round(ch.cap_value / (41.0 / QUANT)))
