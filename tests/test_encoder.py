@@ -815,3 +815,37 @@ def test_cap_values_lie_on_half_the_input_error():
         assert on_quarters == (step == 0.25)  # 16-bit caps keep their finer digits
     ch = isophote.encode(img, preset="balanced", noise=1.3).channels[0]
     assert np.allclose(ch.cap_value / (41.0 / QUANT), np.round(ch.cap_value / (41.0 / QUANT)))
+
+
+def test_chains_start_at_their_first_joint_in_scan_order(monkeypatch):
+    """encoder.start_at_first_joint: a hand-made square chain and its border flags rotate to
+    start at the top-left joint; on a photograph every chain starts at its joint first in
+    scan order, with the same segments as the fitter's order, and renders the same."""
+    import isophote.encoder as enc
+
+    sq = np.array([[4, 4], [4, 3], [4, 2], [4, 1], [3, 1], [2, 1], [1, 1], [1, 2], [1, 3], [1, 4],
+                   [2, 4], [3, 4], [4, 4]], float)  # joints (4,4) (4,1) (1,1) (1,4)
+    tri = np.array([[0, 5], [1, 5], [2, 5], [3, 5], [2, 6], [1, 7], [0, 5]], float)
+    points = np.vstack([sq, tri])
+    offsets = np.array([0, 13, 20])
+    border = np.array([True, False, False, True, False, True])
+    p, b = enc.start_at_first_joint(points, offsets, border)
+    assert np.array_equal(p[:13], np.vstack([sq[6:12], sq[:7]]))  # from (1, 1)
+    assert np.array_equal(b, [False, True, True, False, False, True])
+    assert np.array_equal(p[13:], tri)  # already first
+    img = skimage.data.astronaut()[::2, ::2][60:188, 60:188]
+    vi = isophote.encode(img, preset="balanced")
+    monkeypatch.setattr(enc, "start_at_first_joint", lambda p, o, b: (p, b))
+    plain = isophote.encode(img, preset="balanced")
+    rotated = 0
+    for a, c in zip(vi.channels, plain.channels):
+        seg_a = np.column_stack([segments(a)[0].reshape(-1, 8), segments(a)[1]])
+        seg_c = np.column_stack([segments(c)[0].reshape(-1, 8), segments(c)[1]])
+        for k in range(a.n_contours):
+            ja = a.points[a.offsets[k] : a.offsets[k + 1] : 3]
+            first = np.lexsort((ja[:, 0], ja[:, 1]))[0]
+            assert first == 0, (a.name, k)
+            rotated += not np.array_equal(a.points[a.offsets[k]], c.points[c.offsets[k]])
+        assert np.array_equal(np.unique(seg_a, axis=0), np.unique(seg_c, axis=0))
+    assert rotated > 100
+    assert np.abs(render_float(vi) - render_float(plain)).max() < 0.05

@@ -114,12 +114,13 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
         points, offsets, border = fit_isolines(iso, opts.snap)
         tree = tree.result()
     q = float(QUANT)
+    points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(
         name=name,
         levels=levels,
         contour_level=iso.level.astype(np.int32),
         offsets=offsets,
-        points=np.round(points * q) / q,
+        points=points,
         border=border,
         parent=tree.parent.astype(np.int32),
         cap_band=tree.cap_band,
@@ -255,6 +256,38 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     loop = np.repeat(np.arange(counts.shape[0]), counts)
     return joint_reach(iso.points, iso.below.astype(np.int64), iso.above.astype(np.int64), level, loop,
                        tol, iso.values.shape[1], iso.values.size, ANCHOR_REACH)
+
+
+def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.ndarray):
+    """Each chain rotated to start at its joint first in scan order (least y, then least x,
+    then the first): the same segments, so the same curves. The fitter starts a loop at its
+    sharpest turn, which fits best; the file codes each chain's first point after the
+    previous chain's, and loops come in scan order of their tops, so first points near the
+    top code shorter: 1.3-1.5 % of the bytes (astronaut, coffee, camera; paper, balanced)."""
+    n_loops = offsets.shape[0] - 1
+    if n_loops == 0:
+        return points, border
+    n_pts = np.diff(offsets)
+    n_seg = (n_pts - 1) // 3
+    seg_loop = np.repeat(np.arange(n_loops), n_seg)
+    seg_start = np.repeat(offsets[:-1], n_seg) + 3 * (np.arange(n_seg.sum()) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg))
+    joints = points[seg_start]  # each segment's first point
+    order = np.lexsort((np.arange(seg_loop.shape[0]), joints[:, 0], joints[:, 1], seg_loop))
+    first = np.ones(order.shape[0], bool)
+    first[1:] = seg_loop[order[1:]] != seg_loop[order[:-1]]
+    seg_base = np.cumsum(n_seg) - n_seg
+    rot = order[first] - seg_base  # (n_loops,) the segment each chain starts at
+    # segments: new g takes old (g + rot) mod n_seg
+    g = np.arange(seg_loop.shape[0]) - seg_base[seg_loop]
+    src_seg = seg_base[seg_loop] + (g + rot[seg_loop]) % np.maximum(n_seg[seg_loop], 1)
+    new_border = border[src_seg]
+    # points: a chain's body (all but its last point) rolls by 3 rot; its last point is its first
+    p_loop = np.repeat(np.arange(n_loops), n_pts)
+    i = np.arange(points.shape[0]) - offsets[:-1][p_loop]
+    body = np.maximum(n_pts[p_loop] - 1, 1)
+    src = offsets[:-1][p_loop] + (i + 3 * rot[p_loop]) % body
+    new_points = points[src]
+    return new_points, new_border
 
 
 def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
