@@ -3,10 +3,11 @@
 Used by :mod:`isophote.encoder` (its ``_joint_reach``). A crossing may move onto the nearer
 end S of its grid edge when S lies within ``frac`` of its tolerance and inside the image (not
 on its frame, where the contour would touch the border), no other crossing of that edge lies
-between it and S, no crossing of another level is nearer S (then the first in point order
-among equals), and at most PER_LOOP crossings of its loop lie nearer S (so no loop shrinks
-onto a sample). Grid samples are flat indices of the padded grid (``wp`` samples a row;
-sample (r, c) sits at ((c - 1) / 2, (r - 1) / 2) px).
+between it and S (S is in the band next to its level: an edge's crossings come in level
+order), no crossing of another level is nearer S (then the first in point order among
+equals), and at most PER_LOOP crossings of its loop lie nearer S (so no loop shrinks onto a
+sample). Grid samples are flat indices of the padded grid (``wp`` samples a row; sample
+(r, c) sits at ((c - 1) / 2, (r - 1) / 2) px); ``band`` is the padded band grid, flat.
 """
 
 from __future__ import annotations
@@ -21,45 +22,34 @@ PER_LOOP = 2
 
 
 @njit(cache=True, nogil=True)
-def joint_reach(points, below, above, level, loop, tol, wp, size, frac):
+def joint_reach(points, below, above, band, level, loop, tol, wp, frac):
     """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
     n = points.shape[0]
-    # per grid edge (its lower sample and direction), its crossings nearest either end; per
-    # sample, the nearest candidate: indices (int32, -1 for none) keep these arrays small
-    first = np.full(2 * size, -1, np.int32)
-    last = np.full(2 * size, -1, np.int32)
-    along = np.empty(n)
+    size = band.shape[0]
+    hp = size // wp
+    # the candidates, chained per sample (head, nxt; int32 keeps the per-sample array small)
+    head = np.full(size, -1, np.int32)
+    nxt = np.full(n, -1, np.int32)
+    near = np.full(n, -1, np.int64)
     dist = np.empty(n)
-    for k in range(n):
-        lo = min(below[k], above[k])
-        hi = max(below[k], above[k])
+    for k in range(n - 1, -1, -1):  # chains in point order
+        lo = below[k]
+        hi = above[k]
         r = lo // wp
         a = abs(points[k, 0] - (lo - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
         r = hi // wp
         b = abs(points[k, 0] - (hi - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
-        e = 2 * lo + (1 if hi - lo != 1 else 0)
-        along[k] = a
-        dist[k] = min(a, b)
-        if first[e] < 0 or a < along[first[e]]:
-            first[e] = k
-        if last[e] < 0 or a > along[last[e]]:
-            last[e] = k
-    # the candidates, chained per sample (head, nxt), and each one's sample
-    head = np.full(size, -1, np.int32)
-    nxt = np.full(n, -1, np.int32)
-    near = np.full(n, -1, np.int64)
-    hp = size // wp
-    for k in range(n - 1, -1, -1):  # chains in point order
-        lo = min(below[k], above[k])
-        hi = max(below[k], above[k])
-        a = along[k]
-        e = 2 * lo + (1 if hi - lo != 1 else 0)
-        to_lo = a == dist[k]  # S is the edge's lower sample
-        end = along[first[e]] if to_lo else along[last[e]]
-        s = lo if to_lo else hi
+        # S, the nearer end (the lower-numbered sample on ties), and whether it is in the band
+        # next to the crossing's level: the crossings of an edge come in level order (the
+        # marching kernel's monotone interpolant), so then none lies between it and S
+        if a < b or (a == b and lo < hi):
+            s, d, next_to = lo, a, band[lo] == level[k]
+        else:
+            s, d, next_to = hi, b, band[hi] == level[k] + 1
+        dist[k] = d
         r = s // wp
         inside = 1 < r < hp - 2 and 1 < s - r * wp < wp - 2
-        if dist[k] <= frac * tol[k] and a == end and inside:
+        if d <= frac * tol[k] and next_to and inside:
             near[k] = s
             nxt[k] = head[s]
             head[s] = k
@@ -84,32 +74,26 @@ def joint_reach(points, below, above, level, loop, tol, wp, size, frac):
     return reach
 
 
-def joint_reach_ref(points, below, above, level, loop, tol, wp, size, frac):
+def joint_reach_ref(points, below, above, band, level, loop, tol, wp, frac):
     """NumPy twin of :func:`joint_reach`."""
     n = points.shape[0]
+    size = band.shape[0]
 
     def xy(s):
         r = s // wp
         return np.stack([(s - r * wp - 1) * 0.5, (r - 1) * 0.5], axis=1)
 
-    lo = np.minimum(below, above)
-    hi = np.maximum(below, above)
-    along = np.abs(points - xy(lo)).sum(axis=1)  # from the edge's lower sample (one term is 0)
-    d_hi = np.abs(points - xy(hi)).sum(axis=1)
-    to_lo = along <= d_hi
-    near = np.where(to_lo, lo, hi)
-    dist = np.where(to_lo, along, d_hi)
-    # the crossing nearest either end of each edge
-    _, edge = np.unique(lo * size + hi, return_inverse=True)
-    first = np.full(edge.max() + 1 if n else 0, np.inf)
-    last = np.full_like(first, -np.inf)
-    np.minimum.at(first, edge, along)
-    np.maximum.at(last, edge, along)
+    a = np.abs(points - xy(below)).sum(axis=1)
+    b = np.abs(points - xy(above)).sum(axis=1)
+    to_below = (a < b) | ((a == b) & (below < above))
+    near = np.where(to_below, below, above)
+    dist = np.where(to_below, a, b)
+    next_to = np.where(to_below, band[below] == level, band[above] == level + 1)
     r, c = np.divmod(near, wp)
     inside = (r > 1) & (r < size // wp - 2) & (c > 1) & (c < wp - 2)
-    ok = (dist <= frac * tol) & np.where(to_lo, along == first[edge], along == last[edge]) & inside
+    ok = (dist <= frac * tol) & next_to & inside
     # per sample, the level of the nearest candidate (then the first); per sample and loop,
-    # the nearest candidate (then the first)
+    # the PER_LOOP nearest candidates (then the first)
     cand = np.flatnonzero(ok)
     order = cand[np.lexsort((cand, dist[cand], near[cand]))]
     start = np.ones(order.shape[0], bool)
