@@ -140,6 +140,27 @@ def label_regions_ref(vals, band, levels):
 
 
 @njit(cache=True, nogil=True)
+def _is_edge(labels, r, c, h, w):
+    """Is image sample (r, c) (labels[r + 1, c + 1]) an edge sample: one with a 4-neighbour
+    of another region? The padding is no neighbour."""
+    k = labels[r + 1, c + 1]
+    return ((c + 1 < w and labels[r + 1, c + 2] != k) or (c > 0 and labels[r + 1, c] != k)
+            or (r + 1 < h and labels[r + 2, c + 1] != k) or (r > 0 and labels[r, c + 1] != k))
+
+
+def _edge_ref(lab):
+    """NumPy twin of _is_edge over the image samples (labels without the padding ring)."""
+    edge = np.zeros(lab.shape, bool)
+    dh = lab[:, :-1] != lab[:, 1:]
+    dv = lab[:-1, :] != lab[1:, :]
+    edge[:, :-1] |= dh
+    edge[:, 1:] |= dh
+    edge[:-1, :] |= dv
+    edge[1:, :] |= dv
+    return edge
+
+
+@njit(cache=True, nogil=True)
 def region_stats(labels, vals, m):
     """Per region (ignoring the padding ring): its deepest sample (flat index), sum and
     count. The deepest sample is the one farthest, in city-block grid steps,
@@ -156,9 +177,7 @@ def region_stats(labels, vals, m):
     d = np.empty((h, w), np.int64)
     for r in range(h):  # forward chamfer pass: edges are 0, the rest 1 + the nearer of up, left
         for c in range(w):
-            k = labels[r + 1, c + 1]
-            if ((c + 1 < w and labels[r + 1, c + 2] != k) or (c > 0 and labels[r + 1, c] != k)
-                    or (r + 1 < h and labels[r + 2, c + 1] != k) or (r > 0 and labels[r, c + 1] != k)):
+            if _is_edge(labels, r, c, h, w):
                 d[r, c] = 0
             else:
                 v = far
@@ -195,13 +214,7 @@ def region_stats_ref(labels, vals, m):
     hp, wp = labels.shape
     lab = labels[1:-1, 1:-1]
     v = vals[1:-1, 1:-1]
-    edge = np.zeros(lab.shape, bool)
-    dh = lab[:, :-1] != lab[:, 1:]
-    dv = lab[:-1, :] != lab[1:, :]
-    edge[:, :-1] |= dh
-    edge[:, 1:] |= dh
-    edge[:-1, :] |= dv
-    edge[1:, :] |= dv
+    edge = _edge_ref(lab)
     d = distance_transform_cdt(~edge, metric="taxicab") if edge.any() else np.zeros(lab.shape, np.int64)
     rr, cc = np.mgrid[1 : hp - 1, 1 : wp - 1]
     idx = (rr * wp + cc).ravel()
@@ -241,9 +254,7 @@ def cap_sums(labels, vals, want, L, ramp):
     has_edge = False
     for r in range(h):
         for c in range(w):
-            k = labels[r + 1, c + 1]
-            e = ((c + 1 < w and labels[r + 1, c + 2] != k) or (c > 0 and labels[r + 1, c] != k)
-                 or (r + 1 < h and labels[r + 2, c + 1] != k) or (r > 0 and labels[r, c + 1] != k))
+            e = _is_edge(labels, r, c, h, w)
             edge[r, c] = e
             has_edge = has_edge or e
     if not has_edge:
@@ -290,13 +301,7 @@ def cap_sums_ref(labels, vals, want, L, ramp):
     m = want.shape[0]
     lab = labels[1:-1, 1:-1]
     v = vals[1:-1, 1:-1]
-    edge = np.zeros(lab.shape, bool)
-    dh = lab[:, :-1] != lab[:, 1:]
-    dv = lab[:-1, :] != lab[1:, :]
-    edge[:, :-1] |= dh
-    edge[:, 1:] |= dh
-    edge[:-1, :] |= dv
-    edge[1:, :] |= dv
+    edge = _edge_ref(lab)
     if not edge.any():
         return np.zeros(m), np.zeros(m), False
     d = (distance_transform_edt(~edge) + 0.5) * 0.5

@@ -35,10 +35,10 @@ QUANT = 64  # control points and cap values are stored on a 1/64 grid (format/is
 # (astronaut, paper, processor time; 41 % with two Newton steps per check instead of one,
 # which saved 0.1 % of the bytes).
 HANDLE_SHIFT = 5
-# Joints move onto the 2x sample grid (0.5 px) where their crossing lies within
-# ANCHOR_REACH of its tolerance of the nearer end S of its grid edge, no crossing lies
-# between them, and no crossing of another level is nearer S (_joint_reach; _kernels/fit.py,
-# step 5): the file codes such a coordinate 5 bits shorter. ANCHOR_REACH: encoder/fit.py.
+# Joints move onto the 2x sample grid (0.5 px) where their crossing may (_joint_reach: within
+# ANCHOR_REACH of its tolerance of the nearer end of its grid edge, among other rules;
+# _kernels/fit.py, step 5): the file codes such a coordinate 5 bits shorter.
+# ANCHOR_REACH: encoder/fit.py.
 ANCHOR_GRID = 0.5
 # Cap values are rounded to this fraction of the input's error (cap_value_step).
 CAP_STEP = 0.5
@@ -270,15 +270,14 @@ def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.nda
     n_pts = np.diff(offsets)
     n_seg = (n_pts - 1) // 3
     seg_loop = np.repeat(np.arange(n_loops), n_seg)
-    seg_start = np.repeat(offsets[:-1], n_seg) + 3 * (np.arange(n_seg.sum()) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg))
-    joints = points[seg_start]  # each segment's first point
+    seg_base = np.cumsum(n_seg) - n_seg
+    g = np.arange(seg_loop.shape[0]) - seg_base[seg_loop]  # each segment's place in its chain
+    joints = points[offsets[:-1][seg_loop] + 3 * g]  # each segment's first point
     order = np.lexsort((np.arange(seg_loop.shape[0]), joints[:, 0], joints[:, 1], seg_loop))
     first = np.ones(order.shape[0], bool)
     first[1:] = seg_loop[order[1:]] != seg_loop[order[:-1]]
-    seg_base = np.cumsum(n_seg) - n_seg
     rot = order[first] - seg_base  # (n_loops,) the segment each chain starts at
     # segments: new g takes old (g + rot) mod n_seg
-    g = np.arange(seg_loop.shape[0]) - seg_base[seg_loop]
     src_seg = seg_base[seg_loop] + (g + rot[seg_loop]) % np.maximum(n_seg[seg_loop], 1)
     new_border = border[src_seg]
     # points: a chain's body (all but its last point) rolls by 3 rot; its last point is its first

@@ -116,7 +116,7 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     deep, total, count = region_stats(labels, iso.values, m)
     is_cap &= count > 0  # the padding-only part of the root has no samples
     regs = np.flatnonzero(is_cap)
-    hp, wp = iso.band.shape
+    wp = iso.band.shape[1]
     cap_band = iso.band.ravel()[deep[regs]].astype(np.int32)
     no_contour = hi[regs] < 0  # the mean
     with np.errstate(invalid="ignore", divide="ignore"):
