@@ -482,15 +482,6 @@ def march_loops(vals, band, levels, grid, grid_eps):
     rec = rec[:0].copy()
     trav = trav[:0].copy()
     tb_f = tb.view(np.float64)
-    # sample errors and |grad| (as encoder/ribbon.py's gradient_magnitude) of every sample,
-    # side by side, on the padded grid with 0 on the ring, gathered below by flat padded index
-    eg = np.zeros((hp * wp, 2))
-    if n_loops > 0:
-        for r in range(hg):
-            for c in range(wg):
-                a = (r + 1) * wp + c + 1
-                eg[a, 0] = grid_eps[r, c]
-                eg[a, 1] = _grad_at(grid, r, c)
     # the kept loops in order of their smallest start key, each rotated to start there;
     # per point, in travel order: (x, y), the border flag of the segment it starts, its
     # below and above samples, t, and the errors and gradients at those samples
@@ -555,10 +546,16 @@ def march_loops(vals, band, levels, grid, grid_eps):
             points[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
             points[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
             t[m] = tt
-            eps_b[m] = eg[b, 0]
-            eps_a[m] = eg[ab, 0]
-            grad_b[m] = eg[b, 1]
-            grad_a[m] = eg[ab, 1]
+            # sample errors and |grad| at both samples (0 on the padding), as
+            # encoder/ribbon.py's gradient_magnitude; the above sample is never padding
+            if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
+                eps_b[m] = grid_eps[rb - 1, cb - 1]
+                grad_b[m] = _grad_at(grid, rb - 1, cb - 1)
+            else:
+                eps_b[m] = 0.0
+                grad_b[m] = 0.0
+            eps_a[m] = grid_eps[ra - 1, ca - 1]
+            grad_a[m] = _grad_at(grid, ra - 1, ca - 1)
             below[m] = b
             above[m] = ab
             border[m] = (tb[src, 3] & 1) != 0

@@ -261,6 +261,24 @@ def cap_sums(labels, vals, want, L, ramp):
         return num, den, False
     rad = max(0, int(math.ceil(2.0 * ramp - 1.5)))
     far = (rad + 1) * (rad + 1)
+    # the window's nearest edge sample, separably: hd[r, c] is the distance along row r to
+    # the nearest edge sample within rad columns of c (rad + 1: none), from one sweep each
+    # way; the window minimum of dr^2 + dc^2 is then the minimum over its rows of
+    # dr^2 + hd^2 (the same value as scanning the whole window)
+    none = rad + 1
+    hd = np.empty((h, w), np.int16)
+    for r in range(h):
+        last = -none - 1
+        for c in range(w):
+            if edge[r, c]:
+                last = c
+            hd[r, c] = min(c - last, none)
+        nxt = w + none + 1
+        for c in range(w - 1, -1, -1):
+            if edge[r, c]:
+                nxt = c
+            if nxt - c < hd[r, c]:
+                hd[r, c] = nxt - c
     d = np.empty((h, w))
     dmax = np.zeros(m)
     for r in range(h):
@@ -273,12 +291,11 @@ def cap_sums(labels, vals, want, L, ramp):
                 best = 0
             else:
                 for rr in range(max(0, r - rad), min(h, r + rad + 1)):
-                    dr = rr - r
-                    for cc in range(max(0, c - rad), min(w, c + rad + 1)):
-                        if edge[rr, cc]:
-                            s = dr * dr + (cc - c) * (cc - c)
-                            if s < best:
-                                best = s
+                    e = hd[rr, c]
+                    if e <= rad:
+                        s = (rr - r) * (rr - r) + e * e
+                        if s < best:
+                            best = s
             dist = (math.sqrt(best) + 0.5) * 0.5 if best <= far else ramp
             d[r, c] = dist
             if dist > dmax[k]:

@@ -254,8 +254,8 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     counts = np.diff(iso.offsets)
     level = np.repeat(iso.level, counts).astype(np.int64)
     loop = np.repeat(np.arange(counts.shape[0]), counts)
-    return joint_reach(iso.points, iso.below.astype(np.int64), iso.above.astype(np.int64),
-                       iso.band.ravel().astype(np.int64), level, loop, tol, iso.values.shape[1], ANCHOR_REACH)
+    return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), level, loop, tol,
+                       iso.values.shape[1], ANCHOR_REACH)
 
 
 def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.ndarray):
