@@ -80,16 +80,18 @@ def label_regions(vals, band, levels):
                 same_side = (bo1 > ba and bo2 > ba) or (bo1 < ba and bo2 < ba)
                 if not same_side or _diag_band(vals[r, c], vals[r, c + 1], vals[r + 1, c + 1], vals[r + 1, c], levels) == ba:
                     _union(parent, ia, ic)
-    labels = np.empty(n, np.int64)
-    remap = np.full(n, -1, np.int64)
+    # labels in place: a set's root is its smallest sample (_union keeps the smaller root)
+    # and every parent comes before its child, so in scan order a sample that is its own
+    # parent starts a new region, and any other one's parent already holds its label
     m = 0
     for i in range(n):
-        root = _find(parent, i)
-        if remap[root] < 0:
-            remap[root] = m
+        p = parent[i]
+        if p == i:
+            parent[i] = m
             m += 1
-        labels[i] = remap[root]
-    return labels.reshape(hp, wp), m
+        else:
+            parent[i] = parent[p]
+    return parent.reshape(hp, wp), m
 
 
 def label_regions_ref(vals, band, levels):
@@ -174,7 +176,7 @@ def region_stats(labels, vals, m):
     total = np.zeros(m)
     count = np.zeros(m, np.int64)
     far = h + w + 1
-    d = np.empty((h, w), np.int64)
+    d = np.empty((h, w), np.int32)  # city-block steps: far below 2**31 on any grid that fits in memory
     for r in range(h):  # forward chamfer pass: edges are 0, the rest 1 + the nearer of up, left
         for c in range(w):
             if _is_edge(labels, r, c, h, w):

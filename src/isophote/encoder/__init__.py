@@ -109,6 +109,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
     grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, opts.carrato_cubic)
     iso = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
+    del plane, eps, grid, grid_eps  # iso holds what the rest needs (16 bytes a grid sample less)
     with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
         tree = side.submit(build_hierarchy, iso, levels)
         points, offsets, border = fit_isolines(iso, opts.snap)
