@@ -10,7 +10,7 @@ Prints, and writes to OUT/speed.md:
   * render it at 1x and 3840x3840 against resvg rendering vtracer's high-fidelity SVG at the
     same sizes, with the peak memory of each render (a child process per measurement);
   * time per megapixel for encode (paper preset) and render from 256^2 to 2048^2
-    (astronaut resized);
+    (astronaut resized), with the peak memory of each encode (a child process per size);
   * render time for output scales 1x to 8x;
   * `isophote --help` start-up time.
 Times are the best of --repeat runs, after a warm-up that compiles (or loads) the kernels.
@@ -64,6 +64,31 @@ else:
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 print(json.dumps(dict(seconds=dt, peak_mb=peak / 1024, added_mb=(peak - base) / 1024)))
 """
+
+
+ENCODE_CHILD = r"""
+import json, resource, sys
+import numpy as np
+sys.path.insert(0, {here!r})
+from corpus import load_corpus
+from PIL import Image
+import isophote
+n = int(sys.argv[1])
+img = load_corpus(("astronaut",))["astronaut"]
+im = np.asarray(Image.fromarray(img).resize((n, n), Image.LANCZOS))
+isophote.encode(img[:64, :64], preset={preset!r})  # compile / load the kernels
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+isophote.encode(im, preset={preset!r})
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps(dict(peak_mb=peak / 1024, added_mb=(peak - base) / 1024)))
+"""
+
+
+def encode_peak(size: int) -> dict:
+    """Peak memory of one encode of astronaut resized to size x size, in a child process."""
+    out = subprocess.run([sys.executable, "-c", ENCODE_CHILD.format(here=HERE, preset=PRESET), str(size)],
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def child(kind: str, size: int, repeat: int) -> dict:
@@ -165,15 +190,16 @@ def main(argv=None):
     say()
     say(f"Scaling with image size (astronaut resized with Lanczos, {PRESET} preset), seconds per megapixel:")
     say()
-    say("| size | encode s | encode s/MP | render 1x s | render s/MP |")
-    say("|---|---|---|---|---|")
+    say("| size | encode s | encode s/MP | encode peak MB | render 1x s | render s/MP |")
+    say("|---|---|---|---|---|---|")
     sizes = (256, 512, 1024) if args.quick else (256, 512, 1024, 2048)
     for n in sizes:
         im = np.asarray(Image.fromarray(img).resize((n, n), Image.LANCZOS))
         v, te = best_of(lambda: isophote.encode(im, preset=PRESET), 1 if n > 1024 else repeat)
         _, tr = best_of(lambda: v.render(), 1 if n > 1024 else repeat)
         mp = n * n / 1e6
-        say(f"| {n}x{n} | {te:.2f} | {te / mp:.2f} | {tr:.2f} | {tr / mp:.2f} |")
+        peak = encode_peak(n)["peak_mb"]
+        say(f"| {n}x{n} | {te:.2f} | {te / mp:.2f} | {peak:.0f} | {tr:.2f} | {tr / mp:.2f} |")
 
     say()
     say("Render time against output size (astronaut master):")
