@@ -1,7 +1,7 @@
 """Each numba kernel against its plain NumPy (or Python) twin on seeded random inputs
 (STYLE.md item 8): marching squares (alone and fused with linking), bands, region labelling,
 region levels and cap sums, innermost enclosing loop (by rays and by rows), row bucketing,
-scanline rasterisation and distance propagation."""
+scanline rasterisation, distance propagation and the renderer's node regions."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import pytest
 
 from isophote._kernels.diffuse import seed as seed_fields
 from isophote._kernels.diffuse import (
-    D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, offsets, propagate, propagate_ref,
+    D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, label_nodes, label_nodes_ref, offsets, propagate,
+    propagate_ref,
 )
 from isophote._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_ref, innermost_enclosing_rows,
@@ -208,6 +209,36 @@ def test_pad_grid_bands_are_searchsorted(quantised):
 # region labelling
 # ---------------------------------------------------------------------------------------
 
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_label_nodes_matches_its_twin(seed):
+    """The renderer's node regions (8-connected, equal band) against scipy's labelling, on
+    random band grids from speckle to large blobs; numbered in scan order of first nodes."""
+    rng = np.random.default_rng(300 + seed)
+    nr, nc = rng.integers(1, 40, 2)
+    coarse = rng.integers(0, 4, (nr // 4 + 1, nc // 4 + 1))
+    band = np.kron(coarse, np.ones((4, 4), np.int64))[:nr, :nc]
+    band = np.where(rng.random((nr, nc)) < 0.15, rng.integers(0, 4, (nr, nc)), band).astype(np.int16)
+    labels, m = label_nodes(band)
+    labels_ref, m_ref = label_nodes_ref(band)
+    assert labels.dtype == np.int32 and m == m_ref
+    assert np.array_equal(labels, labels_ref)
+    assert labels.flat[0] == 0 and np.array_equal(np.unique(labels), np.arange(m))
+
+
+def test_label_nodes_joins_diagonals():
+    """8-connected: a checkerboard is two regions, and a diagonal line of one band does not
+    part the band on either side of it (their corners touch across it); a wall two nodes
+    thick does."""
+    board = (np.indices((6, 6)).sum(axis=0) % 2).astype(np.int16)
+    labels, m = label_nodes(board)
+    assert m == 2 and labels[0, 0] == 0 and labels[0, 1] == 1
+    labels, m = label_nodes(np.eye(5, dtype=np.int16))
+    assert m == 2 and labels[0, 4] == labels[4, 0]
+    wall = np.eye(5, dtype=np.int16) + np.eye(5, k=1, dtype=np.int16)
+    labels, m = label_nodes(wall)
+    assert m == 3 and labels[0, 4] != labels[4, 0]
 
 @pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])
