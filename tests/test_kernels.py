@@ -210,7 +210,6 @@ def test_pad_grid_bands_are_searchsorted(quantised):
 # ---------------------------------------------------------------------------------------
 
 
-
 @pytest.mark.parametrize("seed", SEEDS)
 def test_label_nodes_matches_its_twin(seed):
     """The renderer's node regions (8-connected, equal band) against scipy's labelling, on
@@ -239,6 +238,7 @@ def test_label_nodes_joins_diagonals():
     wall = np.eye(5, dtype=np.int16) + np.eye(5, k=1, dtype=np.int16)
     labels, m = label_nodes(wall)
     assert m == 3 and labels[0, 4] != labels[4, 0]
+
 
 @pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("quantised", [False, True], ids=["float", "on-levels"])

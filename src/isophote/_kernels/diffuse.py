@@ -54,7 +54,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .regions import _find
+from .regions import _label_in_place, _union
 
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
 SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
@@ -255,21 +255,8 @@ def label_nodes(band):
                 ii = i + di
                 jj = j + dj
                 if 0 <= ii < nr and 0 <= jj < nc and band[ii, jj] == b:
-                    ra = _find(parent, k)
-                    rb = _find(parent, ii * nc + jj)
-                    if ra != rb:
-                        parent[max(ra, rb)] = min(ra, rb)
-    # labels in scan order of each region's first node: a set's root is its smallest node
-    # and parents come before children, so a node that is its own parent starts a region
-    # and any other one's parent holds its label already (written over the parents)
-    m = 0
-    for k in range(nr * nc):
-        p = parent[k]
-        if p == k:
-            parent[k] = m
-            m += 1
-        else:
-            parent[k] = parent[p]
+                    _union(parent, k, ii * nc + jj)
+    m = _label_in_place(parent)  # numbered in scan order of each region's first node
     return parent.astype(np.int32).reshape(nr, nc), m
 
 

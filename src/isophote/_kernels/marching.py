@@ -379,7 +379,6 @@ def march_loops(vals, band, levels, grid, grid_eps):
     padding). Returns ok False (and empty arrays) if the segments do not close into loops.
     """
     hp, wp = vals.shape
-    hg, wg = grid.shape
     n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
     # link: the segment after s starts on s's end edge, in the cell across it, same level.
     # The links go to a compact array of their own: walking the loops chases them one

@@ -37,6 +37,24 @@ def _union(parent, a, b):
 
 
 @njit(cache=True, nogil=True)
+def _label_in_place(parent):
+    """Turn a union-find array built by _union into labels, in place; returns their count.
+    A set's root is its smallest element (_union keeps the smaller root) and every parent
+    comes before its child, so in scan order an element that is its own parent starts a new
+    set (label m), and any other one's parent already holds its label. Labels are numbered
+    in scan order of each set's first element."""
+    m = 0
+    for i in range(parent.shape[0]):
+        p = parent[i]
+        if p == i:
+            parent[i] = m
+            m += 1
+        else:
+            parent[i] = parent[p]
+    return m
+
+
+@njit(cache=True, nogil=True)
 def _diag_band(v0, v1, v2, v3, levels):
     # band of the saddle value of the bilinear cell (v0..v3 = TL, TR, BR, BL)
     den = v0 + v2 - v1 - v3
@@ -80,17 +98,7 @@ def label_regions(vals, band, levels):
                 same_side = (bo1 > ba and bo2 > ba) or (bo1 < ba and bo2 < ba)
                 if not same_side or _diag_band(vals[r, c], vals[r, c + 1], vals[r + 1, c + 1], vals[r + 1, c], levels) == ba:
                     _union(parent, ia, ic)
-    # labels in place: a set's root is its smallest sample (_union keeps the smaller root)
-    # and every parent comes before its child, so in scan order a sample that is its own
-    # parent starts a new region, and any other one's parent already holds its label
-    m = 0
-    for i in range(n):
-        p = parent[i]
-        if p == i:
-            parent[i] = m
-            m += 1
-        else:
-            parent[i] = parent[p]
+    m = _label_in_place(parent)
     return parent.reshape(hp, wp), m
 
 
