@@ -109,8 +109,8 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
 
 
 def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
-    """The pipeline on two workers: the channels' distance fields, then strip by strip of
-    output rows, each channel's fill of the strip into a float32 plane of its own; the task
+    """The pipeline on a worker per channel: the channels' distance fields, then strip by
+    strip of output rows, each channel's fill of the strip into a float32 plane of its own; the task
     that fills a strip's last channel turns its planes into the output's colour (quantised to
     ``depth`` bits, or float64 where depth is None) and lets them go. Strips are queued in
     order, every channel of one before the next, so only the strips in flight hold planes:
@@ -129,7 +129,10 @@ def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
     lock = threading.Lock()
     held = {}  # first row of a strip -> the planes of it filled so far
 
-    with ThreadPoolExecutor(max_workers=2) as pool:
+    # a worker per channel: with two per image, the third channel's field ran alone on one
+    # core at the end (astronaut at 1x: 0.25 s against 0.21 s; at 3840 x 3840 no change, the
+    # fields are held to the end either way)
+    with ThreadPoolExecutor(max_workers=len(names)) as pool:
         def field(ch):
             nf = _channel_field(vi, ch, vp, opts)
             return nf, StripEdges(nf, vp, STRIP_ROWS)
