@@ -2,8 +2,10 @@
 
 Scaling (§5, Fig. 9)
     Each photograph is box-downsampled by 4 (and by 8), the small image is encoded with the
-    paper preset (and with the balanced and high ones) and rendered back at 4x (8x); Pillow's bilinear, bicubic and Lanczos
-    enlarge the same small image. All are scored against the original photograph.
+    paper preset (and with the balanced and high ones) and rendered back at 4x (8x) with the
+    renderer's defaults, which sharpen enlargements (render/sharpen.py; "high unsharpened":
+    high with sharpen 0); Pillow's bilinear, bicubic and Lanczos enlarge the same small
+    image. All are scored against the original photograph.
 
 Warps (§6)
     Each photograph is box-downsampled by 2: that is the input. Rotation by 15 degrees
@@ -63,6 +65,7 @@ from isophote.apply import equalise as E  # noqa: E402
 from isophote.apply import warp as W  # noqa: E402
 from isophote.colour import rgb_to_yuv  # noqa: E402
 from isophote.model import DOME  # noqa: E402
+from isophote.options import RenderOptions  # noqa: E402
 from isophote.render import quantise, render_float  # noqa: E402
 
 SECTIONS = ("scale", "warp", "equalise", "depth")
@@ -98,8 +101,9 @@ def bench_scale(corpus, factors=(4, 8)):
             up = vi.render(scale=factor)
             ren = time.perf_counter() - t
             peers = upscale_peers(small, factor, repeat=1)
+            vi_high = isophote.encode(small, preset="high")
             outs = {"isophote": up, "balanced": isophote.encode(small, preset="balanced").render(scale=factor),
-                    "high": isophote.encode(small, preset="high").render(scale=factor),
+                    "high": vi_high.render(scale=factor), "high unsharpened": vi_high.render(scale=factor, sharpen=0.0),
                     "bilinear": peers["bilinear"], "bicubic": peers["bicubic"], "lanczos": peers["lanczos"]}
             row = {"factor": factor, "image": name, "size": f"{small.shape[1]}x{small.shape[0]}",
                    "encode_s": enc, "render_s": ren}
@@ -113,7 +117,7 @@ def bench_scale(corpus, factors=(4, 8)):
 
 
 def table_scale(rows):
-    methods = ("isophote", "balanced", "high", "bilinear", "bicubic", "lanczos")
+    methods = ("isophote", "balanced", "high", "high unsharpened", "bilinear", "bicubic", "lanczos")
     out = ["| x | image | small | " + " | ".join(f"{m} PSNR | {m} S2" for m in methods) + " | encode s | render s |",
            "|---|---|---|" + "---|---|" * len(methods) + "---|---|"]
     for r in rows:
@@ -185,7 +189,7 @@ def bench_warp(corpus):
         vi = isophote.encode(lo, preset="paper")
         vi_balanced = isophote.encode(lo, preset="balanced")
         vi_high = isophote.encode(lo, preset="high")
-        hi_render = np.rint(render_float(vi, scale=2))
+        hi_render = np.rint(render_float(vi, scale=2, sharpen=0.0))  # the model's own surface
         lo_render = np.rint(render_float(vi))
         if lo.ndim == 2:
             hi_render, lo_render = hi_render[..., 0], lo_render[..., 0]
@@ -286,18 +290,20 @@ def bench_equalise(corpus):
         eq = E.equalise(vi, info=info).channel("Y")
         row["tone_s"] = time.perf_counter() - t
         row["tone"] = info["measured"]
-        row["tone2"] = E.histogram_stats(E._render_channel(eq, w, h, 2.0))
+        row["tone2"] = E.histogram_stats(E._render_channel(eq, w, h, 2.0, RenderOptions().sharpen))
+        row["tone2plain"] = E.histogram_stats(E._render_channel(eq, w, h, 2.0))
         row["knots"] = info["tone_knots"]
         rows.append(row)
         print(f"equalise {name}: " + ", ".join(
             f"{k} {row[k]['empty']}/{row[k]['ks']:.4f}/{row[k]['entropy']:.3f}"
-            for k in ("input", "opencv", "skimage", "levels", "tone", "tone2"))
+            for k in ("input", "opencv", "skimage", "levels", "tone", "tone2", "tone2plain"))
             + f"; KS floor {row['floor']:.4f} (plateaus {row['plateau_floor']:.4f}), {row['knots']} knots", flush=True)
     return rows
 
 
 EQ_COLUMNS = (("input", "8-bit Y"), ("opencv", "OpenCV"), ("skimage", "scikit-image"),
-              ("levels", "isophote areas"), ("tone", "isophote tone"), ("tone2", "isophote tone 2x"))
+              ("levels", "isophote areas"), ("tone", "isophote tone"), ("tone2", "isophote tone 2x"),
+              ("tone2plain", "isophote tone 2x unsharpened"))
 
 
 def table_equalise(rows):
@@ -403,8 +409,8 @@ def main(argv=None):
                  "Against the same warp of the full-resolution photograph, downsampled by 2 "
                  "(the input is the photograph downsampled by 2):", ""]
         lines += table_warp(rows, ("isophote", "balanced", "high", "bicubic", "bilinear")) + [""]
-        lines += ["The warp alone: against the same warp of the vector image's own 2x render "
-                  "(isophote: the vector warp; bicubic: scikit-image's bicubic warp of the 1x render):", ""]
+        lines += ["The warp alone: against the same warp of the vector image's own 2x render, "
+                  "unsharpened (isophote: the vector warp; bicubic: scikit-image's bicubic warp of the 1x render):", ""]
         parts["warp"] = lines + table_warp(own, ("isophote", "bicubic")) + [""]
     if "equalise" not in skip:
         rows = bench_equalise(corpus)
@@ -412,9 +418,11 @@ def main(argv=None):
                              "Luminance histograms, 256 bins: empty bins, KS distance to the uniform, entropy "
                              "(bits). isophote: the Y channel rendered at 1x after level reassignment (areas: "
                              "exact Green's-theorem areas only, caps as encoded; tone: the areas, caps made "
-                             "domes, then one tone curve measured on the 1x and 2x renders pooled, 1x weighing "
-                             "twice; tone 2x: the "
-                             "same image rendered at 2x). KS floor: what no monotone map of the 1x render the "
+                             "domes, then one tone curve measured on the 1x and 2x renders pooled, unsharpened, "
+                             "1x weighing twice; tone 2x: the "
+                             "same image rendered at 2x with the renderer's default enlargement sharpening, "
+                             "and with sharpen 0). "
+                             "KS floor: what no monotone map of the 1x render the "
                              "curve starts from (domes) can beat without emptying bins, as every single value "
                              "stays one value, costing half its share beyond one bin's, or all of it less one "
                              "bin at an end of the scale; plateau floor: the same with the caps' flat tops "

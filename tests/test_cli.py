@@ -196,6 +196,8 @@ def test_output_equal_to_input_is_refused(files, tmp_path, capsys):
     ["--scale", "-2"],
     ["--scale", "2", "--width", "10"],
     ["--supersample", "0"],
+    ["--sharpen", "2"],
+    ["--sharpen", "soft"],
     ["--max-pixels", "10"],
     ["--diff", "d.png"],
 ])

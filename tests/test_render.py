@@ -83,7 +83,7 @@ def test_g1_fill_follows_a_curved_profile_better_than_straight_lines():
     truth = 20.3 + 0.1 * x4**2
     errs, kinks = {}, {}
     for fill in ("diffusion", "linear"):
-        row = render_float(vi, scale=4, fill=fill)[24, :, 0]
+        row = render_float(vi, scale=4, fill=fill, sharpen=0.0)[24, :, 0]  # the fills alone
         inner = slice(64, -12)  # away from the frame and the widest bands on the left
         errs[fill] = np.abs(row - truth)[inner].mean()
         kinks[fill] = np.abs(np.diff(row, 2))[inner].max()
@@ -191,7 +191,7 @@ def test_dome_caps_rise_to_their_value_at_the_centre(scale):
     ch = vi.channels[0]
     top = int(np.argmax(ch.cap_value))
     dome = replace(vi, channels=(replace(ch, cap_ramp=DOME),))
-    out = render_float(dome, scale=scale)[..., 0]
+    out = render_float(dome, scale=scale, sharpen=0.0)[..., 0]  # the fill alone
     yy, xx = (np.mgrid[0 : 48 * scale, 0 : 48 * scale] + 0.5) / scale
     r = np.hypot(xx - 24.3, yy - 23.6)
     # no plateau: the profile keeps rising towards the centre, where it reaches the cap value
@@ -204,8 +204,60 @@ def test_dome_caps_rise_to_their_value_at_the_centre(scale):
     level = ch.levels[ch.cap_band[top] - 1]
     assert inner.min() >= level - 1.0 and inner.max() <= ch.cap_value[top] + 1.0
     # the contours stay where they were (the surround, a pit against the frame, is a dome too)
-    base = render_float(vi, scale=scale)[..., 0]
+    base = render_float(vi, scale=scale, sharpen=0.0)[..., 0]
     assert np.array_equal(out >= 125.0, base >= 125.0)
+
+# ---------------------------------------------------------------------------------------
+# enlargement sharpening (render/sharpen.py)
+# ---------------------------------------------------------------------------------------
+
+
+def test_sharpened_enlargement_is_closer_to_the_sharp_disc():
+    """The disc's pixels are area averages of a sharp disc; enlarged 4x, the sharpened render
+    is closer to that disc's own 4x pixels than the plain one, and rings within its bound."""
+    vi = isophote.encode(disc_image(), preset="paper")
+    truth = disc_image(48 * 4, 40.0, 24.3 * 4, 23.6 * 4, ss=2)
+    plain = render_float(vi, scale=4, sharpen=0.0)[..., 0]
+    sharp = render_float(vi, scale=4, sharpen=0.125)[..., 0]
+    e_plain, e_sharp = np.abs(plain - truth), np.abs(sharp - truth)
+    assert e_sharp.mean() < 0.9 * e_plain.mean(), (e_sharp.mean(), e_plain.mean())
+    assert np.sqrt((e_sharp**2).mean()) < 0.9 * np.sqrt((e_plain**2).mean())
+    # overshoot at most the two axes' gains times the 150-level step
+    bound = 2 * 0.125 * (1 - 1 / 16) * 150
+    assert sharp.max() <= 200.25 + bound and sharp.min() >= 50.0 - bound
+    assert sharp.max() > 205.0  # it does sharpen
+    # flat parts stay as they were: the centre, the corners
+    yy, xx = (np.mgrid[0:192, 0:192] + 0.5) / 4
+    r = np.hypot(xx - 24.3, yy - 23.6)
+    far = (r < 7.0) | (r > 13.5)
+    assert np.abs(sharp - plain)[far].max() <= 0.25
+
+
+def test_sharpening_keeps_ramps_and_leaves_1x_alone(ramps, wavy):
+    for kind in ("x", "diagonal"):
+        _, vi = ramps[kind]
+        d = np.abs(render_float(vi, scale=4) - render_float(vi, scale=4, sharpen=0.0))[..., 0]
+        assert d[8:-8, 8:-8].max() <= 0.5 and d.mean() <= 0.05, (d[8:-8, 8:-8].max(), d.mean())
+    for options in (dict(), dict(scale=0.5), dict(width=30, height=20), dict(scale=3, fill="flat")):
+        assert np.array_equal(render_float(wavy, **options), render_float(wavy, sharpen=0.0, **options))
+    assert not np.array_equal(render_float(wavy, scale=2), render_float(wavy, scale=2, sharpen=0.0))
+
+
+def test_sharpening_correction_known_answers():
+    from isophote.render.sharpen import correction, gains
+
+    assert gains(0.125, 1.0, 0.5) == (0.0, 0.0)
+    gx, gy = gains(0.125, 4.0, 2.0)
+    assert gx == pytest.approx(0.125 * 15 / 16) and gy == pytest.approx(0.125 * 3 / 4)
+    # f = x^2 + 3 y on the nodes: second differences r nodes apart are 2 r^2 in x, 0 in y
+    r = 3
+    yy, xx = np.mgrid[0:20, 0:25].astype(np.float64)
+    c = correction((xx**2 + 3 * yy).astype(np.float32), r, gx, gy)
+    assert c.dtype == np.float32 and c.shape == (20, 25)
+    assert np.allclose(c[:, r:-r], -gx * 2 * r * r, atol=1e-4)
+    assert np.all(c[:, :r] == 0) and np.all(c[:, -r:] == 0)  # the neighbour would be off the grid
+    assert np.all(correction(np.ones((2, 2), np.float32), r, gx, gy) == 0)
+
 
 @pytest.mark.parametrize("scale", [1, 2, 4])
 def test_cap_peaks_at_its_value(scale):
@@ -216,7 +268,7 @@ def test_cap_peaks_at_its_value(scale):
     top = int(np.argmax(ch.cap_band))
     assert ch.cap_band[top] == np.searchsorted(ch.levels, img.max(), side="right")
     assert abs(ch.cap_xy[top, 0] - 15.6) < 1 and abs(ch.cap_xy[top, 1] - 16.3) < 1
-    out = render_float(vi, scale=scale)[..., 0]
+    out = render_float(vi, scale=scale, sharpen=0.0)[..., 0]  # the fill alone
     assert abs(out.max() - ch.cap_value[top]) <= 1.0, (out.max(), ch.cap_value[top])
     # the maximum is where the bump is
     i, j = np.unravel_index(np.argmax(out), out.shape)
@@ -350,6 +402,9 @@ def test_colour_strips_join_seamlessly(monkeypatch):
         dict(depth=12),
         dict(supersample=0),
         dict(supersample=17),
+        dict(sharpen=-0.1),
+        dict(sharpen=1.5),
+        dict(sharpen=float("nan")),
         dict(scale=0),
         dict(scale=-2),
         dict(scale=2, width=10),
@@ -403,13 +458,13 @@ def _check_diamond(out, scale):
 @pytest.mark.parametrize("scale", [1, 2, 3])
 def test_diamond_pit_renders_between_its_caps(scale):
     """The reference for the xfail below: the top vertex a tenth of a pixel lower."""
-    out = render_float(_diamond_pit(4.6), scale=scale)[..., 0]
+    out = render_float(_diamond_pit(4.6), scale=scale, sharpen=0.0)[..., 0]  # the fill alone
     _check_diamond(out, scale)
 
 
 @pytest.mark.parametrize("scale", [1, 2, 3])
 def test_vertex_touching_a_node_row_is_no_source(scale):
-    out = render_float(_diamond_pit(4.5), scale=scale)[..., 0]
+    out = render_float(_diamond_pit(4.5), scale=scale, sharpen=0.0)[..., 0]
     _check_diamond(out, scale)
 
 

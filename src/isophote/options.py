@@ -222,6 +222,9 @@ class RenderOptions:
         "linear" (the paper's straight-line blend of the two distances) or "flat" (Fig. 1b).
     distance : "euclidean", "manhattan" (the paper's §4.2) or "geodesic".
     supersample : s for s x s samples per output pixel, box-filtered (1 = point samples).
+    sharpen : K of the enlargement sharpening (render/sharpen.py): above 1x the source
+        pixels' box blur, which the contours interpolate, is taken out down to the output
+        pixel's; 0 turns it off; no effect at or below 1x, nor with fill "flat".
     depth : 8 or 16 bits per channel.
     max_pixels : refuse larger outputs unless raised explicitly (memory safety).
     """
@@ -233,6 +236,7 @@ class RenderOptions:
     fill: str = "diffusion"
     distance: str = "euclidean"
     supersample: int = 1
+    sharpen: float = 0.125
     depth: int = 8
     max_pixels: int = 100_000_000
 
@@ -245,6 +249,8 @@ class RenderOptions:
             raise OptionError(f"depth must be 8 or 16, got {self.depth}")
         if not (1 <= int(self.supersample) <= 16):
             raise OptionError(f"supersample must be between 1 and 16, got {self.supersample}")
+        if not (0.0 <= float(self.sharpen) <= 1.0):
+            raise OptionError(f"sharpen must be between 0 and 1, got {self.sharpen}")
         if self.scale is not None and (self.width is not None or self.height is not None):
             raise OptionError("give either a scale or a width/height, not both")
         if self.scale is not None and not (0 < self.scale <= 1000):

@@ -3,7 +3,8 @@
     render(vi)  ->  viewport (size, scale, crop)  ->  per channel:
         flatten chains  ->  distance fields on the node grid (§4.1-4.2)
         ->  per strip of output rows: rasterise bands at the target samples
-        ->  fill (double diffusion or flat)  ->  box filter  ->  colour (YUV -> RGB), quantise
+        ->  fill (double diffusion or flat; sharpened above 1x)  ->  box filter
+        ->  colour (YUV -> RGB), quantise
 
 The fill is a fixed function of the vector image and the output scale: distances live on a
 node grid over the whole image (r nodes per source pixel, chosen from the image size and the
@@ -27,6 +28,7 @@ from ..options import RenderOptions, make
 from .distance import NodeField, node_field
 from .fill import StripEdges, fill_strip
 from .flatten import flatten, segments
+from .sharpen import gains
 
 STRIP_ROWS = 128  # output rows per strip: bounds memory at large sizes
 
@@ -193,7 +195,8 @@ def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
     check_nodes(vi, r, opts)
     tol = 0.05 / max(r, vp.kx, vp.ky)
     edges = flatten(segs, border, tol)
-    return node_field(vi, ch, edges, r, opts.distance, smooth=opts.fill != "linear")
+    gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
+    return node_field(vi, ch, edges, r, opts.distance, smooth=opts.fill != "linear", sharpen=gain)
 
 
 NODE_BUDGET = 6_000_000

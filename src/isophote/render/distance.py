@@ -15,6 +15,7 @@ from .._kernels.diffuse import (
     region_caps, seed,
 )
 from .._kernels.raster import rasterise
+from .sharpen import correction
 
 MODES = {"euclidean": MODE_EUCLIDEAN, "manhattan": MODE_MANHATTAN, "geodesic": MODE_GEODESIC}
 MAX_SWEEPS = 1  # one forward+backward pair: more change the corpus renders by < 0.01 dB
@@ -36,9 +37,12 @@ class NodeField:
     smooth: bool  # G1 profiles across isolines (fill "diffusion") or straight lines ("linear")
     bw: np.ndarray  # (nr, nc, 2) float32 band width and step per node (band_widths), for G1
     ramp: float  # the caps' longest ramp in node units (Channel.cap_ramp * r)
+    corr: np.ndarray  # (nr, nc) float32 enlargement sharpening at the nodes (sharpen.py), or (0, 0)
 
 
-def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> NodeField:
+def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True, sharpen=(0.0, 0.0)) -> NodeField:
+    """The distance fields of one channel on its node grid; ``sharpen``: the per-axis gains
+    of the enlargement sharpening (sharpen.gains), (0, 0) for none."""
     x0, y0, x1, y1, src = edges
     nr, nc = vi.height * r, vi.width * r
     band, *h = rasterise(x0 * r, y0 * r, x1 * r, y1 * r, src, 0, 0, nr, nc, True)
@@ -61,4 +65,5 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True) -> Nod
         F, band, labels, dmax, capv, ramp, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
         ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw,
     )
-    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp)
+    corr = correction(nv, r, *sharpen) if max(sharpen) > 0.0 else np.zeros((0, 0), np.float32)
+    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp, corr)

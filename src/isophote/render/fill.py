@@ -4,8 +4,9 @@ Double diffusion: at a sample in band b with distance t1 to the nearest lower so
 C_lo, the level below or a pit's minimum) and t2 to the nearest upper one (C_up),
 C = C_lo * t2 / (t1 + t2) + C_up * t1 / (t1 + t2) (fill "linear"; the default "diffusion"
 bends that line into a G1 curve across the isolines, see _kernels/diffuse.py). Flat fill gives every band the middle of
-its two levels (Fig. 1b). Supersamples are averaged over each output pixel (a box filter, as
-in the paper's 4 x 4 supersampling).
+its two levels (Fig. 1b). Above 1x the fill gets the enlargement sharpening (sharpen.py), a
+field on the node grid interpolated at each sample. Supersamples are averaged over each output
+pixel (a box filter, as in the paper's 4 x 4 supersampling).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import numpy as np
 from ..model import apply_tone_curve
 from .._kernels.diffuse import evaluate
 from .._kernels.raster import rasterise
+from .._kernels.resample import add_bilinear
 
 
 class StripEdges:
@@ -61,6 +63,8 @@ def fill_strip(nf, vp, edges: StripEdges, out_r0: int, out_r1: int, flat: bool, 
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
     evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, nf.ramp, tband, xs, ys, nf.levels, nf.mode, flat, nf.nv, out, nf.smooth, nf.bw)
+    if nf.corr.shape[0] and not flat:
+        add_bilinear(out, nf.corr, xs, ys)  # enlargement sharpening (sharpen.py)
     out = apply_tone_curve(out, tone)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
