@@ -38,6 +38,7 @@ class NodeField:
     bw: np.ndarray  # (nr, nc, 2) float32 band width and step per node (band_widths), for G1
     ramp: float  # the caps' longest ramp in node units (Channel.cap_ramp * r)
     corr: np.ndarray  # (nr, nc) float32 enlargement sharpening at the nodes (sharpen.py), or (0, 0)
+    nv_sharp: np.ndarray  # nv + corr (nv itself without sharpening), what the samples read
 
 
 def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True, sharpen=(0.0, 0.0)) -> NodeField:
@@ -63,7 +64,9 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True, sharpe
     bw = band_widths(F, band, labels, dmax, capv, ramp) if smooth else np.zeros((0, 0, 2), np.float32)
     evaluate(
         F, band, labels, dmax, capv, ramp, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
-        ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw,
+        ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw, np.empty((0, 0), np.float32),
     )
     corr = correction(nv, r, *sharpen) if max(sharpen) > 0.0 else np.zeros((0, 0), np.float32)
-    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp, corr)
+    nv_sharp = nv + corr if corr.shape[0] else nv
+    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp, corr,
+                     nv_sharp)
