@@ -1,0 +1,112 @@
+"""How well could a vector warp do at best? The encoder's interpolant alone (issue 5).
+
+A vector warp renders the contours traced on the encoder's 2x grid (encoder/mapping.py:
+the pixels, Carrato midpoints between them, marching squares linear within each half-pixel
+cell). However faithfully the contours follow that grid, the warped render can be no better
+than the grid itself read at the warped positions. This script takes the contours out:
+it samples the grid bilinearly (its own interpolant) at the warp's inverse positions and
+scores it as benchmarks/apply.py scores the warps (same input, reference, mask and warps),
+beside scikit-image's bicubic and order-5 spline warps of the input and two finer grids:
+a cubic spline's values on the 2x grid and on a 4x grid, each read bilinearly.
+
+    .venv/bin/python benchmarks/warp_ceiling.py [--images astronaut,coffee] [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+from scipy import ndimage
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from apply import raster_warp, warp_cases  # noqa: E402
+from corpus import CORPUS, load_corpus  # noqa: E402
+from peers import downscale  # noqa: E402
+
+from isophote.encoder.mapping import map_pixels  # noqa: E402
+
+WARPS = ("rotate 15", "perspective", "swirl")
+
+
+def spline_grid(v, factor):
+    """A cubic spline's values on the grid of `factor` samples a pixel (grid sample k at
+    k / factor, in pixel-corner coordinates, as the encoder's grid for factor 2)."""
+    h, w = v.shape
+    rr = np.arange(factor * h + 1) / factor - 0.5
+    cc = np.arange(factor * w + 1) / factor - 0.5
+    return ndimage.map_coordinates(v, np.meshgrid(rr, cc, indexing="ij"), order=3, mode="mirror")
+
+
+def read_grid(grids, factor, inv, h, w):
+    """The grids read bilinearly at the inverse map of each output pixel centre."""
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    p = inv(np.stack([xx.ravel() + 0.5, yy.ravel() + 0.5], axis=1))
+    out = [ndimage.map_coordinates(g, [p[:, 1] * factor, p[:, 0] * factor], order=1, mode="nearest").reshape(h, w)
+           for g in grids]
+    return out[0] if len(out) == 1 else np.stack(out, axis=-1)
+
+
+def measure(img):
+    lo = downscale(img, 2).astype(np.float64)
+    h, w = lo.shape[:2]
+    hi = img[: 2 * h, : 2 * w].astype(np.float64)
+    chans = [lo] if lo.ndim == 2 else [lo[..., k] for k in range(lo.shape[2])]
+    models = {
+        "encoder grid": ([map_pixels(c, 0.0)[0] for c in chans], 2),
+        "spline on 2x grid": ([spline_grid(c, 2) for c in chans], 2),
+        "spline on 4x grid": ([spline_grid(c, 4) for c in chans], 4),
+    }
+    rows = {}
+    for case, (_, inv, _, inv2) in warp_cases(w, h).items():
+        ref = downscale(np.rint(raster_warp(hi, inv2, 5)).astype(np.uint8), 2).astype(np.float64)
+        cover = raster_warp(np.full((2 * h, 2 * w), 255.0), inv2, 0)
+        mask = downscale(cover.astype(np.uint8), 2) == 255
+        mask &= raster_warp(np.full((h, w), 255.0), inv, 0) == 255
+        mask = ndimage.binary_erosion(mask, iterations=2)
+
+        def psnr(t):
+            t = np.clip(np.rint(t), 0, 255)
+            return float(10 * np.log10(255.0**2 / np.mean((ref[mask] - t[mask]) ** 2)))
+
+        r = {"bicubic": psnr(raster_warp(lo, inv, 3)), "spline order 5": psnr(raster_warp(lo, inv, 5))}
+        for name, (grids, factor) in models.items():
+            r[name] = psnr(read_grid(grids, factor, inv, h, w))
+        rows[case] = r
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--images", default=",".join(CORPUS))
+    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    args = ap.parse_args(argv)
+    corpus = load_corpus(tuple(args.images.split(",")))
+    results = {name: measure(img) for name, img in corpus.items()}
+    cols = list(next(iter(next(iter(results.values())).values())))
+    lines = ["# Warps: the encoder's interpolant alone (issue 5)", "",
+             "PSNR dB against the warp of the full-resolution photograph, as in apply.md "
+             "(`benchmarks/warp_ceiling.py`; its docstring has the method). The first two columns "
+             "warp the input raster with scikit-image; the others read a grid bilinearly, "
+             "\"encoder grid\" being the one the contours are traced on.", "",
+             "| image | warp | " + " | ".join(cols) + " |", "|---|---|" + "---|" * len(cols)]
+    for name, rows in results.items():
+        for case, r in rows.items():
+            lines.append(f"| {name} | {case} | " + " | ".join(f"{r[c]:.2f}" for c in cols) + " |")
+    for case in WARPS:
+        lines.append(f"| **mean** | {case} | " + " | ".join(
+            f"**{np.mean([results[n][case][c] for n in results]):.2f}**" for c in cols) + " |")
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, "warp_ceiling.md")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print("\n".join(lines[-3:]))
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
