@@ -21,6 +21,7 @@ from isophote._kernels.marching import (
 )
 from isophote._kernels.raster import rasterise, rasterise_ref
 from isophote._kernels.resample import bilinear_at, bilinear_at_ref
+from isophote._kernels.sharpen import correction, correction_ref
 from isophote._kernels.regions import (
     cap_sums, cap_sums_ref, label_regions, label_regions_ref, region_levels, region_levels_ref,
     region_stats, region_stats_ref,
@@ -624,3 +625,12 @@ def test_bilinear_at_matches_its_twin(seed):
     yy, xx = np.mgrid[0:nr, 0:nc] + 0.5
     at_nodes = np.array([bilinear_at(field, x, y) for x, y in zip(xx.ravel(), yy.ravel())])
     assert np.allclose(at_nodes, field.ravel(), atol=1e-5)
+
+
+@pytest.mark.parametrize("r, gx, gy, shape", [(1, 0.1, 0.0, (5, 9)), (2, 0.0, 0.2, (9, 4)),
+                                               (3, 0.117, 0.094, (40, 31)), (3, 0.1, 0.1, (6, 6))])
+def test_sharpen_correction_matches_its_twin(r, gx, gy, shape):
+    nv = np.random.default_rng(r).uniform(0, 255, shape).astype(np.float32)
+    corr, sharp = correction(nv, r, gx, gy)
+    corr_ref, sharp_ref = correction_ref(nv, r, gx, gy)
+    assert np.allclose(corr, corr_ref, atol=1e-4) and np.allclose(sharp, sharp_ref, atol=1e-4)

@@ -427,98 +427,6 @@ def _mid(levels, b):
 
 
 @njit(cache=True, nogil=True)
-def _exact(F, nband, labels, dmax, capv, ramp, levels, mode, smooth, bw, x, y, i0, j0, b):
-    """The fill at (x, y) in band b evaluated from the nodes around it (evaluate's exact path;
-    i0, j0: the node row and column at or before it)."""
-    nr, nc = nband.shape
-    mid = _mid(levels, b)
-    reg = -1
-    reg_d = np.inf
-    best_d0 = np.inf
-    best_d1 = np.inf
-    v0 = 0.0
-    v1 = 0.0
-    sx0 = sy0 = sx1 = sy1 = 0.0
-    found = False
-    for ring in range(2):
-        lo_i = i0 - ring
-        hi_i = i0 + 1 + ring
-        lo_j = j0 - ring
-        hi_j = j0 + 1 + ring
-        for i in range(lo_i, hi_i + 1):
-            if i < 0 or i >= nr:
-                continue
-            for j in range(lo_j, hi_j + 1):
-                if j < 0 or j >= nc:
-                    continue
-                bn = nband[i, j]
-                if bn == b:
-                    found = True
-                    dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
-                    if dn2 < reg_d:
-                        reg_d = dn2
-                        reg = labels[i, j]
-                    s_lo, s_hi = 0, 2
-                elif bn == b - 1:
-                    # a node just below: its upper isoline is this sample's lower one
-                    s_lo, s_hi = 1, 2
-                elif bn == b + 1:
-                    # a node just above: its lower isoline is this sample's upper one
-                    s_lo, s_hi = 0, 1
-                else:
-                    continue
-                for s in range(s_lo, s_hi):
-                    dn = F[s, D, i, j]
-                    if dn == np.inf:
-                        continue
-                    sx = F[s, SX, i, j]
-                    sy = F[s, SY, i, j]
-                    tx = F[s, TX, i, j]
-                    ty = F[s, TY, i, j]
-                    cand = seg_dist(x, y, sx, sy, tx, ty, mode)
-                    if mode != 0 and bn == b:
-                        # the path to the node, with its last leg re-aimed at the sample
-                        cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
-                    side = s if bn == b else 1 - s
-                    if side == 0:
-                        if cand < best_d0:
-                            best_d0 = cand
-                            v0 = F[s, V, i, j]
-                            sx0, sy0 = sx, sy
-                    else:
-                        if cand < best_d1:
-                            best_d1 = cand
-                            v1 = F[s, V, i, j]
-                            sx1, sy1 = sx, sy
-        if found or (best_d0 < np.inf and best_d1 < np.inf):
-            break
-    if best_d0 == np.inf or best_d1 == np.inf:
-        cv = capv[reg] if reg >= 0 else np.nan
-        if best_d0 == np.inf and best_d1 == np.inf:
-            return mid if np.isnan(cv) else cv
-        if best_d0 == np.inf:  # a pit: only the level above is a source
-            lvl, d, s_other = v1, best_d1, 1
-        else:  # a peak
-            lvl, d, s_other = v0, best_d0, 0
-        if np.isnan(cv):
-            return 0.5 * (lvl + mid)
-        dm = min(dmax[reg, s_other], ramp)
-        if dm <= 0.0 or d >= dm:
-            return cv
-        elif not smooth:
-            return lvl + (cv - lvl) * d / dm
-        else:
-            return _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm)
-    tot = best_d0 + best_d1
-    if tot <= 0.0:
-        return 0.5 * (v0 + v1)
-    elif not smooth:
-        return (v0 * best_d1 + v1 * best_d0) / tot
-    else:
-        return _hermite(bw, nband, b, x, y, sx0, sy0, best_d0, v0, sx1, sy1, best_d1, v1)
-
-
-@njit(cache=True, nogil=True)
 def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth, bw,
              corr):
     """Fill values at target samples.
@@ -537,6 +445,7 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
     sharpening with it, the exactly evaluated ones add its bilinear interpolation.
     """
     use_corr = corr.shape[0] > 0
+    exact = np.zeros(tband.shape[1] if use_corr else 0, np.bool_)
     use_nv = nv.shape[0] == nband.shape[0]
     nr, nc = nband.shape
     nl = levels.shape[0]
@@ -575,7 +484,99 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                     out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[ic, jc] + fx * nv[ic, jc + 1])
                                     + fy * ((1.0 - fx) * nv[ic + 1, jc] + fx * nv[ic + 1, jc + 1]))
                     continue
-            value = _exact(F, nband, labels, dmax, capv, ramp, levels, mode, smooth, bw, x, y, i0, j0, b)
             if use_corr:
-                value += bilinear_at(corr, x, y)
-            out[a, bcol] = value
+                exact[bcol] = True  # evaluated exactly: corr is added below
+            mid = _mid(levels, b)
+            reg = -1
+            reg_d = np.inf
+            best_d0 = np.inf
+            best_d1 = np.inf
+            v0 = 0.0
+            v1 = 0.0
+            sx0 = sy0 = sx1 = sy1 = 0.0
+            found = False
+            for ring in range(2):
+                lo_i = i0 - ring
+                hi_i = i0 + 1 + ring
+                lo_j = j0 - ring
+                hi_j = j0 + 1 + ring
+                for i in range(lo_i, hi_i + 1):
+                    if i < 0 or i >= nr:
+                        continue
+                    for j in range(lo_j, hi_j + 1):
+                        if j < 0 or j >= nc:
+                            continue
+                        bn = nband[i, j]
+                        if bn == b:
+                            found = True
+                            dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
+                            if dn2 < reg_d:
+                                reg_d = dn2
+                                reg = labels[i, j]
+                            s_lo, s_hi = 0, 2
+                        elif bn == b - 1:
+                            # a node just below: its upper isoline is this sample's lower one
+                            s_lo, s_hi = 1, 2
+                        elif bn == b + 1:
+                            # a node just above: its lower isoline is this sample's upper one
+                            s_lo, s_hi = 0, 1
+                        else:
+                            continue
+                        for s in range(s_lo, s_hi):
+                            dn = F[s, D, i, j]
+                            if dn == np.inf:
+                                continue
+                            sx = F[s, SX, i, j]
+                            sy = F[s, SY, i, j]
+                            tx = F[s, TX, i, j]
+                            ty = F[s, TY, i, j]
+                            cand = seg_dist(x, y, sx, sy, tx, ty, mode)
+                            if mode != 0 and bn == b:
+                                # the path to the node, with its last leg re-aimed at the sample
+                                cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
+                            side = s if bn == b else 1 - s
+                            if side == 0:
+                                if cand < best_d0:
+                                    best_d0 = cand
+                                    v0 = F[s, V, i, j]
+                                    sx0, sy0 = sx, sy
+                            else:
+                                if cand < best_d1:
+                                    best_d1 = cand
+                                    v1 = F[s, V, i, j]
+                                    sx1, sy1 = sx, sy
+                if found or (best_d0 < np.inf and best_d1 < np.inf):
+                    break
+            if best_d0 == np.inf or best_d1 == np.inf:
+                cv = capv[reg] if reg >= 0 else np.nan
+                if best_d0 == np.inf and best_d1 == np.inf:
+                    out[a, bcol] = mid if np.isnan(cv) else cv
+                    continue
+                if best_d0 == np.inf:  # a pit: only the level above is a source
+                    lvl, d, s_other = v1, best_d1, 1
+                else:  # a peak
+                    lvl, d, s_other = v0, best_d0, 0
+                if np.isnan(cv):
+                    out[a, bcol] = 0.5 * (lvl + mid)
+                    continue
+                dm = min(dmax[reg, s_other], ramp)
+                if dm <= 0.0 or d >= dm:
+                    out[a, bcol] = cv
+                elif not smooth:
+                    out[a, bcol] = lvl + (cv - lvl) * d / dm
+                else:
+                    out[a, bcol] = _cap_hermite(bw, nband, b, x, y, s_other,
+                                                sx0, sy0, sx1, sy1, d, lvl, cv, dm)
+                continue
+            tot = best_d0 + best_d1
+            if tot <= 0.0:
+                out[a, bcol] = 0.5 * (v0 + v1)
+            elif not smooth:
+                out[a, bcol] = (v0 * best_d1 + v1 * best_d0) / tot
+            else:
+                out[a, bcol] = _hermite(bw, nband, b, x, y, sx0, sy0, best_d0, v0, sx1, sy1, best_d1, v1)
+        if use_corr:
+            for bcol in range(m):
+                if exact[bcol]:
+                    out[a, bcol] += bilinear_at(corr, xs[bcol], y)
+                    exact[bcol] = False

@@ -15,7 +15,7 @@ from .._kernels.diffuse import (
     region_caps, seed,
 )
 from .._kernels.raster import rasterise
-from .sharpen import correction
+from .._kernels.sharpen import correction
 
 MODES = {"euclidean": MODE_EUCLIDEAN, "manhattan": MODE_MANHATTAN, "geodesic": MODE_GEODESIC}
 MAX_SWEEPS = 1  # one forward+backward pair: more change the corpus renders by < 0.01 dB
@@ -66,7 +66,9 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True, sharpe
         F, band, labels, dmax, capv, ramp, band, np.arange(nc) + 0.5, np.arange(nr) + 0.5,
         ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw, np.empty((0, 0), np.float32),
     )
-    corr = correction(nv, r, *sharpen) if max(sharpen) > 0.0 else np.zeros((0, 0), np.float32)
-    nv_sharp = nv + corr if corr.shape[0] else nv
+    if max(sharpen) > 0.0:
+        corr, nv_sharp = correction(nv, r, float(sharpen[0]), float(sharpen[1]))
+    else:
+        corr, nv_sharp = np.zeros((0, 0), np.float32), nv
     return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp, corr,
                      nv_sharp)

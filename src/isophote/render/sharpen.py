@@ -14,7 +14,7 @@ where f is the rendered surface; K = 1/24 for a surface that is the exact interp
 Ours is smoother than the ideal interpolant between the samples, so the best K measured
 is larger (below). Nothing changes at or below 1x: s <= 1 gives no correction.
 
-The correction is computed on the distance-node grid (r nodes a source pixel; the nodes'
+The correction is computed (_kernels/sharpen.py) on the distance-node grid (r nodes a source pixel; the nodes'
 fill values are the surface there) with the second differences one source pixel (r nodes)
 apart, and interpolated bilinearly to the target samples. It is a field over the whole
 canvas, like the distances, so crops and tiles of a render stay exactly the corresponding
@@ -41,38 +41,9 @@ and 4x on the corpus (high, 4x: 33.0 against 35.7), so it is not done.
 
 from __future__ import annotations
 
-import numpy as np
-
 def gains(k: float, sx: float, sy: float) -> tuple[float, float]:
     """The per-axis weights K (1 - 1/s^2) of the second differences, for output scales sx and
     sy (output pixels per source pixel); 0 at or below 1x."""
     gx = k * (1.0 - 1.0 / (sx * sx)) if sx > 1.0 else 0.0
     gy = k * (1.0 - 1.0 / (sy * sy)) if sy > 1.0 else 0.0
     return gx, gy
-
-
-def _second_difference(f: np.ndarray, r: int, axis: int) -> np.ndarray:
-    """f[k - r] - 2 f[k] + f[k + r] along axis, 0 where k - r or k + r leaves the grid."""
-    out = np.zeros_like(f)
-    n = f.shape[axis]
-    if n > 2 * r:
-        inner = [slice(None)] * f.ndim
-        lo = list(inner)
-        hi = list(inner)
-        inner[axis] = slice(r, n - r)
-        lo[axis] = slice(0, n - 2 * r)
-        hi[axis] = slice(2 * r, n)
-        out[tuple(inner)] = f[tuple(lo)] - 2.0 * f[tuple(inner)] + f[tuple(hi)]
-    return out
-
-
-def correction(nv: np.ndarray, r: int, gx: float, gy: float) -> np.ndarray:
-    """The correction -(gx d2x + gy d2y) at the nodes, from their fill values nv (float32), the
-    second differences r nodes (one source pixel) apart."""
-    f = nv.astype(np.float64)
-    c = np.zeros_like(f)
-    if gx > 0.0:
-        c -= gx * _second_difference(f, r, 1)
-    if gy > 0.0:
-        c -= gy * _second_difference(f, r, 0)
-    return c.astype(np.float32)
