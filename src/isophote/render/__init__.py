@@ -111,11 +111,12 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
 
 
 def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
-    """The pipeline on a few workers: the channels' distance fields, then strip by
-    strip of output rows, each channel's fill of the strip into a float32 plane of its own; the task
-    that fills a strip's last channel turns its planes into the output's colour (quantised to
-    ``depth`` bits, or float64 where depth is None) and lets them go. Strips are queued in
-    order, every channel of one before the next, so only the strips in flight hold planes:
+    """The pipeline on a few workers (below): the channels' distance fields, then strip by
+    strip of output rows, each channel's fill of the strip into a float32 plane of its own;
+    the task that fills a strip's last channel turns its planes into the output's colour
+    (quantised to ``depth`` bits, or float64 where depth is None) and lets them go. Strips
+    are queued in order, every channel of one before the next, so only the strips in flight
+    hold planes:
     no output-sized float buffer is ever allocated (memory first touched is what a fresh
     process pays most for: at 3840 x 3840, three such planes were 177 MB). A strip task
     that waits for its channel's field waits on a running task: the queue is first in,
