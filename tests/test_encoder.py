@@ -849,3 +849,24 @@ def test_chains_start_at_their_first_joint_in_scan_order(monkeypatch):
         assert np.array_equal(np.unique(seg_a, axis=0), np.unique(seg_c, axis=0))
     assert rotated > 100
     assert np.abs(render_float(vi) - render_float(plain)).max() < 0.05
+
+
+def test_channels_one_at_a_time_when_memory_is_short(monkeypatch):
+    """Two channels at a time unless their memory would not fit; the file is the same bytes
+    either way (channels are independent)."""
+    import isophote.encoder as E
+
+    monkeypatch.setattr(E, "available_memory", lambda: 32 * 2**30)
+    assert E.channel_workers(512 * 512) == 2
+    assert E.channel_workers(40_000_000) == 2  # 18.8 GB for the pair against 25.8 GB usable
+    assert E.channel_workers(60_000_000) == 1  # 28.2 GB
+    monkeypatch.setattr(E, "available_memory", lambda: None)  # unknown: two
+    assert E.channel_workers(100_000_000) == 2
+    img = skimage.data.astronaut()[100:164, 150:230]
+    both = dumps(isophote.encode(img, preset="paper"))
+    seen = []
+    real = E.ThreadPoolExecutor
+    monkeypatch.setattr(E, "ThreadPoolExecutor", lambda max_workers: seen.append(max_workers) or real(max_workers))
+    monkeypatch.setattr(E, "available_memory", lambda: 1000)
+    assert dumps(isophote.encode(img, preset="paper")) == both
+    assert seen[0] == 1  # the channels' pool
