@@ -8,6 +8,7 @@ fig2_*             Fig. 2: the Y, U and V planes (renders of each channel alone)
                    contours over them (red joints polyline, green Beziers, blue border)
 fig9_*             Fig. 9: (a) original, (b) vector render; crops enlarged x4 and x8 with
                    bilinear interpolation (c, e) and rendered from the vector master (d, f)
+                   with the renderer's defaults (enlargements sharpened, render/sharpen.py)
 fig10_*            Fig. 10: histogram equalisation by pixel (a) and by level reassignment
                    (b), with the luminance histograms below them
 fig11_*            Fig. 11: the same from a low-contrast copy of the photograph
