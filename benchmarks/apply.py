@@ -168,19 +168,36 @@ def warp_cases(w, h):
     return out
 
 
+def warp_reference(hi, inv, inv2):
+    """The reference of a warp (the full-resolution photograph hi warped with inv2, order 5,
+    and box-downsampled by 2) and the mask of the pixels scored: covered by every warp, less
+    a 2-pixel margin."""
+    from scipy import ndimage
+
+    h, w = hi.shape[0] // 2, hi.shape[1] // 2
+    ref = downscale(np.rint(raster_warp(hi, inv2, 5)).astype(np.uint8), 2).astype(np.float64)
+    cover = raster_warp(np.full((2 * h, 2 * w), 255.0), inv2, 0)
+    mask = downscale(cover.astype(np.uint8), 2) == 255
+    mask &= raster_warp(np.full((h, w), 255.0), inv, 0) == 255
+    return ref, ndimage.binary_erosion(mask, iterations=2)
+
+
+def psnr_masked(ref, test, mask):
+    """PSNR over the masked pixels, test rounded to 8 bits."""
+    test = np.clip(np.rint(np.asarray(test, dtype=np.float64)), 0, 255)
+    mse = float(np.mean((ref[mask] - test[mask]) ** 2))
+    return 10 * np.log10(255.0**2 / mse) if mse > 0 else float("inf")
+
+
 def _score_masked(ref, test, mask):
     """PSNR over the masked pixels; SSIMULACRA2 with the others copied from the reference."""
     test = np.clip(np.rint(np.asarray(test, dtype=np.float64)), 0, 255)
     m = mask if test.ndim == 2 else mask[..., None]
     comp = np.where(m, test, ref)
-    mse = float(np.mean((ref[mask] - test[mask]) ** 2))
-    psnr = 10 * np.log10(255.0**2 / mse) if mse > 0 else float("inf")
-    return psnr, metrics.ssimulacra2(ref, comp)
+    return psnr_masked(ref, test, mask), metrics.ssimulacra2(ref, comp)
 
 
 def bench_warp(corpus):
-    from scipy import ndimage
-
     rows, own = [], []
     for name, img in corpus.items():
         lo = downscale(img, 2)
@@ -194,12 +211,8 @@ def bench_warp(corpus):
         if lo.ndim == 2:
             hi_render, lo_render = hi_render[..., 0], lo_render[..., 0]
         for case, (f, inv, f2, inv2) in warp_cases(w, h).items():
-            ref = downscale(np.rint(raster_warp(hi, inv2, 5)).astype(np.uint8), 2).astype(np.float64)
+            ref, mask = warp_reference(hi, inv, inv2)
             own_ref = downscale(np.rint(raster_warp(hi_render, inv2, 5)).astype(np.uint8), 2).astype(np.float64)
-            cover = raster_warp(np.full((2 * h, 2 * w), 255.0), inv2, 0)
-            mask = downscale(cover.astype(np.uint8), 2) == 255
-            mask &= raster_warp(np.full((h, w), 255.0), inv, 0) == 255
-            mask = ndimage.binary_erosion(mask, iterations=2)
             t = time.perf_counter()
             warped = W.warp(vi, f)
             wt = time.perf_counter() - t

@@ -24,7 +24,7 @@ from scipy import ndimage
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from apply import raster_warp, warp_cases  # noqa: E402
+from apply import psnr_masked, raster_warp, warp_cases, warp_reference  # noqa: E402
 from corpus import CORPUS, load_corpus  # noqa: E402
 from peers import downscale  # noqa: E402
 
@@ -63,19 +63,11 @@ def measure(img):
     }
     rows = {}
     for case, (_, inv, _, inv2) in warp_cases(w, h).items():
-        ref = downscale(np.rint(raster_warp(hi, inv2, 5)).astype(np.uint8), 2).astype(np.float64)
-        cover = raster_warp(np.full((2 * h, 2 * w), 255.0), inv2, 0)
-        mask = downscale(cover.astype(np.uint8), 2) == 255
-        mask &= raster_warp(np.full((h, w), 255.0), inv, 0) == 255
-        mask = ndimage.binary_erosion(mask, iterations=2)
-
-        def psnr(t):
-            t = np.clip(np.rint(t), 0, 255)
-            return float(10 * np.log10(255.0**2 / np.mean((ref[mask] - t[mask]) ** 2)))
-
-        r = {"bicubic": psnr(raster_warp(lo, inv, 3)), "spline order 5": psnr(raster_warp(lo, inv, 5))}
+        ref, mask = warp_reference(hi, inv, inv2)
+        r = {"bicubic": psnr_masked(ref, raster_warp(lo, inv, 3), mask),
+             "spline order 5": psnr_masked(ref, raster_warp(lo, inv, 5), mask)}
         for name, (grids, factor) in models.items():
-            r[name] = psnr(read_grid(grids, factor, inv, h, w))
+            r[name] = psnr_masked(ref, read_grid(grids, factor, inv, h, w), mask)
         rows[case] = r
     return rows
 
