@@ -33,12 +33,11 @@ class NodeField:
     labels: np.ndarray  # (nr, nc) int32 node regions
     dmax: np.ndarray  # (R, 2) largest distance of each side per region
     capv: np.ndarray  # (R,) cap value per region, NaN where none
-    nv: np.ndarray  # (nr, nc) float32 fill value at each node
+    nv: np.ndarray  # (nr, nc) float32 fill value at each node, plus corr where sharpened
     smooth: bool  # G1 profiles across isolines (fill "diffusion") or straight lines ("linear")
     bw: np.ndarray  # (nr, nc, 2) float32 band width and step per node (band_widths), for G1
     ramp: float  # the caps' longest ramp in node units (Channel.cap_ramp * r)
     corr: np.ndarray  # (nr, nc) float32 enlargement sharpening at the nodes (sharpen.py), or (0, 0)
-    nv_sharp: np.ndarray  # nv + corr (nv itself without sharpening), what the samples read
 
 
 def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True, sharpen=(0.0, 0.0)) -> NodeField:
@@ -67,8 +66,7 @@ def node_field(vi, ch, edges, r: int, distance: str, smooth: bool = True, sharpe
         ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw, np.empty((0, 0), np.float32),
     )
     if max(sharpen) > 0.0:
-        corr, nv_sharp = correction(nv, r, float(sharpen[0]), float(sharpen[1]))
+        corr, nv = correction(nv, r, float(sharpen[0]), float(sharpen[1]))
     else:
-        corr, nv_sharp = np.zeros((0, 0), np.float32), nv
-    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp, corr,
-                     nv_sharp)
+        corr = np.zeros((0, 0), np.float32)
+    return NodeField(F, band, ch.levels, r, mode, edges, ch.base_band, labels, dmax, capv, nv, smooth, bw, ramp, corr)

@@ -61,9 +61,9 @@ def fill_strip(nf, vp, edges: StripEdges, out_r0: int, out_r1: int, flat: bool, 
     xs = (vp.col0 + np.arange(m) + 0.5 + vp.offx) / vp.kx * nf.r
     ys = (row0 + np.arange(n) + 0.5 + vp.offy) / vp.ky * nf.r
     out = np.empty((n, m), np.float32)
-    # with the enlargement sharpening (sharpen.py) in nv_sharp and corr
+    # with the enlargement sharpening (sharpen.py) in nf.nv and nf.corr
     evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, nf.ramp, tband, xs, ys, nf.levels, nf.mode, flat,
-             nf.nv_sharp, out, nf.smooth, nf.bw, nf.corr)
+             nf.nv, out, nf.smooth, nf.bw, nf.corr)
     out = apply_tone_curve(out, tone)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)

@@ -14,9 +14,9 @@ where f is the rendered surface; K = 1/24 for a surface that is the exact interp
 Ours is smoother than the ideal interpolant between the samples, so the best K measured
 is larger (below). Nothing changes at or below 1x: s <= 1 gives no correction.
 
-The correction is computed (_kernels/sharpen.py) on the distance-node grid (r nodes a source pixel; the nodes'
-fill values are the surface there) with the second differences one source pixel (r nodes)
-apart, and interpolated bilinearly to the target samples. It is a field over the whole
+The correction is computed (_kernels/sharpen.py) on the distance-node grid (r nodes a
+source pixel; the nodes' fill values are the surface there) with the second differences one
+source pixel (r nodes) apart, and interpolated bilinearly to the target samples. It is a field over the whole
 canvas, like the distances, so crops and tiles of a render stay exactly the corresponding
 part of the full render. Where a neighbour one pixel away lies off the canvas, that
 axis's second difference is 0 (linear extrapolation: a ramp stays a ramp to the border).
@@ -40,6 +40,7 @@ and 4x on the corpus (high, 4x: 33.0 against 35.7), so it is not done.
 """
 
 from __future__ import annotations
+
 
 def gains(k: float, sx: float, sy: float) -> tuple[float, float]:
     """The per-axis weights K (1 - 1/s^2) of the second differences, for output scales sx and
