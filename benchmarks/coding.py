@@ -32,6 +32,8 @@ write / read times of dumps / loads.
 
 The encoder's QUANT, HANDLE_SHIFT and ANCHOR_GRID are module constants; this script sets
 them (and the fitter's shrink ``_ROUNDING``) for each row and puts them back afterwards.
+Every row but the last of "Bytes per step" shrinks the ribbon by the rounding's largest move,
+as the encoder did before its fitter checked the segments on the file's grid itself.
 """
 
 from __future__ import annotations
@@ -53,11 +55,14 @@ from isophote.format import isoph
 STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range v3", "range"]
 COARSE = "coarse handles"
 JOINTS = "joints on samples"
+WHOLE = "whole ribbon"
 
 
-def encode_at(img, quant: int, handle_shift: int = 0, anchor_grid: float = 0.0):
+def encode_at(img, quant: int, handle_shift: int = 0, anchor_grid: float = 0.0, shrink: bool = True):
+    """The paper preset with these constants; shrink False leaves the ribbon whole, as the
+    encoder does (its fitter checks the segments on the 1/64 px grid when handle_shift > 0)."""
     saved = encoder.QUANT, encoder._ROUNDING, encoder.HANDLE_SHIFT, encoder.ANCHOR_GRID
-    encoder.QUANT, encoder._ROUNDING = quant, 0.5 / quant * np.sqrt(2.0)
+    encoder.QUANT, encoder._ROUNDING = quant, 0.5 / quant * np.sqrt(2.0) if shrink else 0.0
     encoder.HANDLE_SHIFT, encoder.ANCHOR_GRID = handle_shift, anchor_grid
     try:
         return isophote.encode(img, preset="paper")
@@ -165,6 +170,7 @@ def main(argv=None):
     quality = {}  # quant -> {image: (psnr, ssimulacra2, segments)}
     streams_cols, streams_range, streams_v2, streams_coarse, times = {}, {}, {}, {}, {}
     coarse_quality, joints_quality, streams_joints = {}, {}, {}
+    whole_quality, streams_whole = {}, {}
     for q in quants:
         quality[q] = {}
         for name in names:
@@ -195,8 +201,9 @@ def main(argv=None):
                     assert back.equals(vi)
                     times[(name, comp)] = (t1 - t0, t2 - t1, segs)
                 for step, grid, qual, streams in ((COARSE, 0.0, coarse_quality, streams_coarse),
-                                                  (JOINTS, encoder.ANCHOR_GRID, joints_quality, streams_joints)):
-                    cv = encode_at(img, q, encoder.HANDLE_SHIFT, grid)
+                                                  (JOINTS, encoder.ANCHOR_GRID, joints_quality, streams_joints),
+                                                  (WHOLE, encoder.ANCHOR_GRID, whole_quality, streams_whole)):
+                    cv = encode_at(img, q, encoder.HANDLE_SHIFT, grid, shrink=step != WHOLE)
                     cout = cv.render()
                     qual[name] = (metrics.psnr(img, cout), metrics.ssimulacra2(img, cout),
                                   sum(c.n_segments for c in cv.channels))
@@ -225,12 +232,12 @@ def main(argv=None):
         "| step | QUANT | " + " | ".join(names) + " | mean x PNG | vs columns+zlib | mean PSNR dB | mean SSIMULACRA2 |",
         "|---|---|" + "---|" * len(names) + "---|---|---|---|",
     ]
-    ordered = [(s, q0) for s in STEPS] + [(COARSE, q0), (JOINTS, q0)] + [("range", q) for q in quants[1:]]
+    ordered = [(s, q0) for s in STEPS] + [(COARSE, q0), (JOINTS, q0), (WHOLE, q0)] + [("range", q) for q in quants[1:]]
     for step, q in ordered:
         r = rows[(step, q)]
         xpng = np.mean([r[n] / png[n] for n in names])
         rel = np.mean([r[n] / base[n] for n in names])
-        qual = {COARSE: coarse_quality, JOINTS: joints_quality}.get(step, quality[q])
+        qual = {COARSE: coarse_quality, JOINTS: joints_quality, WHOLE: whole_quality}.get(step, quality[q])
         mp = np.mean([qual[n][0] for n in names])
         ms = np.mean([qual[n][1] for n in names])
         lines.append(f"| {step} | {q} | " + " | ".join(f"{r[n]:,}" for n in names)
@@ -239,13 +246,18 @@ def main(argv=None):
               f"{COARSE}: the encoder puts each segment's handles on the coarsest grid, up to "
               f"2**{encoder.HANDLE_SHIFT} / {q0} px in the chord's frame, on which the segment stays in "
               "its ribbon; version 4 codes them divided by that grid. Segments: "
-              + ", ".join(f"{n} {coarse_quality[n][2]:,}" for n in names) + " (the same joints as above).",
+              + ", ".join(f"{n} {coarse_quality[n][2]:,}" for n in names) + " (the fitter rounds the joints to 1/64 px here, so a few differ from the rows above).",
               "",
               f"{JOINTS}: as {COARSE}, and each crossing that becomes a joint moves onto the nearer end of "
               f"its grid edge (the {encoder.ANCHOR_GRID} px sample grid) where that lies within "
               f"{encoder.ANCHOR_REACH} of its tolerance, no crossing lies between them and no crossing "
               "of another level is nearer that sample; the anchor flags then code that coordinate "
-              "5 bits shorter. Segments: " + ", ".join(f"{n} {joints_quality[n][2]:,}" for n in names) + ".", ""]
+              "5 bits shorter. Segments: " + ", ".join(f"{n} {joints_quality[n][2]:,}" for n in names) + ".",
+              "",
+              f"{WHOLE}: as {JOINTS}, and the ribbon is no longer shrunk by the largest move of rounding "
+              "to the 1/64 px grid (0.011 px): the fitter rounds the joints and checks the handles on "
+              "that grid itself (the encoder as it is). Segments: "
+              + ", ".join(f"{n} {whole_quality[n][2]:,}" for n in names) + ".", ""]
 
     lines += [f"## Each encoder grid against QUANT {q0} (range coding)", "",
               "| QUANT | bytes | segments | PSNR change dB | SSIMULACRA2 change |", "|---|---|---|---|---|"]
@@ -268,23 +280,25 @@ def main(argv=None):
     lines += [f"## Bytes per stream, QUANT {q0} (all photographs)", "",
               "Columns: each column zlib-compressed on its own. Range: the coder's bit count per",
               "model (exact to a few bytes per channel), in version 2's layout and version 3's, and",
-              "version 4's with coarse handles, without and with joints on samples.", "",
+              "version 4's with coarse handles, without and with joints on samples, and with the whole",
+              "ribbon.", "",
               "| columns+zlib stream | bytes | range stream | v2 bytes | v3 bytes | v4 coarse handles bytes "
-              "| v4 joints on samples bytes |",
-              "|---|---|---|---|---|---|---|"]
+              "| v4 joints on samples bytes | v4 whole ribbon bytes |",
+              "|---|---|---|---|---|---|---|---|"]
     cs = {k: sum(streams_cols[n][k] for n in names) for k in streams_cols[names[0]]}
     rs = {k: sum(streams_range[n][k] for n in names) for k in streams_range[names[0]]}
     r2 = {k: sum(streams_v2[n][k] for n in names) for k in streams_v2[names[0]]}
     r4 = {k: sum(streams_coarse[n][k] for n in names) for k in streams_coarse[names[0]]}
     r5 = {k: sum(streams_joints[n][k] for n in names) for k in streams_joints[names[0]]}
+    r6 = {k: sum(streams_whole[n][k] for n in names) for k in streams_whole[names[0]]}
     ck, rk = list(cs), list(rs)
     for i in range(max(len(ck), len(rk))):
         a = f"{ck[i]} | {cs[ck[i]]:,.0f}" if i < len(ck) else " | "
-        b = (f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f} | {r4[rk[i]]:,.0f} | {r5[rk[i]]:,.0f}"
-             if i < len(rk) else " | | | | ")
+        b = (f"{rk[i]} | {r2[rk[i]]:,.0f} | {rs[rk[i]]:,.0f} | {r4[rk[i]]:,.0f} | {r5[rk[i]]:,.0f} "
+             f"| {r6[rk[i]]:,.0f}" if i < len(rk) else " | | | | | ")
         lines.append(f"| {a} | {b} |")
     lines += [f"| total | {sum(cs.values()):,.0f} | total | {sum(r2.values()):,.0f} | {sum(rs.values()):,.0f} "
-              f"| {sum(r4.values()):,.0f} | {sum(r5.values()):,.0f} |", ""]
+              f"| {sum(r4.values()):,.0f} | {sum(r5.values()):,.0f} | {sum(r6.values()):,.0f} |", ""]
 
     lines += [f"## Write / read time, QUANT {q0}", "", "| image | segments | zlib write s | zlib read s | range write s | range read s |",
               "|---|---|---|---|---|---|"]

@@ -417,7 +417,10 @@ def test_more_noise_fewer_segments(camera_crop):
 
 
 def test_fitted_chains_stay_within_the_ribbon(camera_crop):
-    """Every isoline point is within its tolerance of its fitted (and rounded) chain."""
+    """Every isoline point is within its tolerance of its fitted and stored chain: the fitter
+    checks the joints and handles on the file's 1/64 px grid itself, so the rounding moves
+    nothing (it could move the handles of a segment that no rounding fits, by at most
+    1/128 px a coordinate: there is none here)."""
     opts = EncodeOptions(preset="paper").resolved()
     img = camera_crop.astype(np.float64)
     levels = channel_levels("Y", opts)
@@ -433,7 +436,7 @@ def test_fitted_chains_stay_within_the_ribbon(camera_crop):
         d = chain_distance(ch.chain(k), iso.loop(k))
         tol = iso.tol[iso.offsets[k] : iso.offsets[k + 1]]
         worst = max(worst, float(np.max(d - tol)))
-    assert worst <= 1.0 / 64.0, worst
+    assert worst <= 1e-9, worst
 
 
 # ---------------------------------------------------------------------------------------
@@ -636,11 +639,11 @@ def test_map_pixels_matches_its_numpy_twin():
 def _fit_isolines_ref(iso, snap):
     """Plain twin of encoder.fit_isolines: every loop on its own, border runs in a Python
     loop (the implementation the vectorised one replaced)."""
-    from isophote.encoder import _ROUNDING, ANCHOR_GRID, HANDLE_SHIFT, _joint_reach
+    from isophote.encoder import _JOINT_ROUNDING, _ROUNDING, ANCHOR_GRID, HANDLE_SHIFT, _joint_reach
     from isophote.encoder.fit import fit_polyline
 
     tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
-    reach = _joint_reach(iso, tol)
+    reach = np.minimum(_joint_reach(iso, tol), np.maximum(tol - _JOINT_ROUNDING, 0.0))
     chains, borders = [], []
     for i in range(iso.n_loops):
         o0, o1 = iso.offsets[i], iso.offsets[i + 1]

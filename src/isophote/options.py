@@ -13,21 +13,22 @@ from .errors import OptionError
 
 # Presets: the values of the fields left at None. Measured on the five corpus photographs
 # (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, .isoph format v4,
-# handles on coarse grids and joints on the sample grid where the ribbon allows):
+# handles on coarse grids and joints on the sample grid where the ribbon allows, the ribbon
+# whole: the fitter checks the file's 1/64 px grid itself):
 #   paper    §1 of the paper: Y every 10 around 127.5 (25 levels), U and V every 5 (49), one
 #            global sample error (the quantisation error), no pruning, ribbon <= 0.5 px.
-#            2.07 x PNG, PSNR 40.8 dB, SSIMULACRA2 72.9, FLIP 0.039; 138k segments.
+#            1.91 x PNG, PSNR 40.75 dB, SSIMULACRA2 72.9, FLIP 0.039; 124k segments.
 #   compact  the paper's levels, with a per-pixel eps of 3 x the local noise deviation
 #            (encoder/noise.py; capped at 0.4 level spacings), a ribbon of up to 1 px, and the
 #            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py).
-#            0.94 x PNG, 38.3 dB, SSIMULACRA2 70.4 ("high quality"), FLIP 0.048; 51k segments.
+#            0.92 x PNG, 38.2 dB, SSIMULACRA2 70.3 ("high quality"), FLIP 0.048; 50k segments.
 #   high     levels every 3 in Y, U and V over the whole scale (1.5 .. 253.5: dark and bright
 #            texture is traced too, encoder/levels.py); the same noise model, chroma pruning
-#            within 0.5 eps. 4.09 x PNG, 45.6 dB, SSIMULACRA2 90.3, FLIP 0.021; 249k segments.
+#            within 0.5 eps. 3.87 x PNG, 45.4 dB, SSIMULACRA2 90.2, FLIP 0.022; 233k segments.
 #            (The paper's range and pruning within 1 eps, format v3: 5.48 x PNG, 45.0 dB, 89.2.)
 #   balanced high's noise model, range and pruning with Y every 6 and U, V every 5: fewer
-#            bytes than paper and more faithful on PSNR and SSIMULACRA2: 1.71 x PNG, 41.4 dB,
-#            SSIMULACRA2 82.1, FLIP 0.035; 96k segments; 1.2-1.5 x paper's encode time.
+#            bytes than paper and more faithful on PSNR and SSIMULACRA2: 1.66 x PNG, 41.2 dB,
+#            SSIMULACRA2 82.0, FLIP 0.035; 93k segments; 1.2-1.5 x paper's encode time.
 #            Steps measured with high's other settings (format v3 x PNG / dB / SSIMULACRA2): Y 5 U/V 5
 #            3.01 / 42.1 / 84.2; Y 6 U/V 6 2.42 / 41.0 / 81.4; Y 6.5 U/V 6 2.26 / 40.5 / 79.7;
 #            Y 7 U/V 6 2.09 / 40.4 / 79.3; Y 8 U/V 6 1.84 / 39.8 / 76.9.
@@ -39,12 +40,12 @@ from .errors import OptionError
 # lifts it to 90.5. Rocket stays near 85 whatever the levels and noise.
 #
 # The default is "balanced": on the corpus mean it is smaller than "paper" and better on every
-# measure (benchmarks/results/report.md: 1.71 against 2.07 x PNG, 41.37 against 40.80 dB,
+# measure (benchmarks/results/report.md: 1.66 against 1.91 x PNG, 41.23 against 40.75 dB,
 # SSIMULACRA2 82.0 against 72.9, FLIP 0.035 against 0.039), and it renders faster at 1x,
 # for 1.2-1.5 x paper's encode time. isophote's first use is a master that every delivery
 # size is rendered from, where fidelity per byte comes first. Camera, its worst case, gets a
-# balanced file smaller than its paper one (3.43 and 3.56 x PNG) and 2.4 dB more faithful.
-# "compact" spends 45 % fewer bytes for 3.1 dB and 11.6 points of SSIMULACRA2 less; "high"
+# balanced file 2 % larger than its paper one (3.32 and 3.25 x PNG) and 2.3 dB more faithful.
+# "compact" spends 45 % fewer bytes for 3.0 dB and 11.7 points of SSIMULACRA2 less; "high"
 # is for masters that must be indistinguishable; "paper" keeps the paper's regime (§1), on which
 # the speed targets and the applications' benchmarks are stated.
 PAPER_RANGE = (7.5, 247.5)  # the paper's levels, 127.5 +- 10k (encoder/levels.py)

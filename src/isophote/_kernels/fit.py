@@ -40,14 +40,19 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    file's handle coding (format/isoph.py: the residual against the straight segment's
    thirds, in the chord's frame, a multiple of 2**sh / QUANT px, sh = coarsen .. 1, the
    anchors rounded to 1/QUANT px) on which it still passes both tests (after one Newton
-   reparameterisation step: the handles move little); a segment no grid fits keeps its
-   handles. The file then codes those residuals divided by 2**sh.
+   reparameterisation step: the handles move little), down to sh = 0, the 1/QUANT grid
+   itself (segments of one edge try only that one); where none fits, the other roundings
+   of the four handle coordinates to that grid are tried in turn, and a segment none of
+   them fits keeps its handles. The file then codes those residuals divided by 2**sh.
+   With ``coarsen`` > 0 the joints are on the 1/QUANT grid too (_joint_at), so the file's
+   rounding moves nothing the tests have passed.
 
 5. Joints on the anchor grid (``anchor_grid`` > 0; the encoder's 2x sample grid, 0.5 px):
    a polyline point that becomes a joint is moved onto that grid in each coordinate that
    lies within the point's ``reach`` of it (_joint_at; the ends of open polylines, shared
-   with the runs beside them, stay). Every fit and test above uses the moved
-   joints, so the guarantees hold for them. The file codes a coordinate on the sample grid
+   with the runs beside them, stay); with ``coarsen`` > 0 every joint is then rounded to
+   the 1/QUANT grid. Every fit and test above uses the moved joints, so the guarantees
+   hold for them. The file codes a coordinate on the sample grid
    5 bits shorter (format/isoph.py, anchor flags), and crossings near a sample are common
    where the ribbon is wide.
 
@@ -581,25 +586,44 @@ def _on_grid(v, shift):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _take_if_fits(q, ed, w, i, j, u, ut, ca, ctrl, g):
+    """Segment g (the span i..j) takes the handles ca if it still fits with them
+    (_check_fixed from the parameters u, in ut); True if it did."""
+    for k in range(i, j + 1):
+        ut[k] = u[k]
+    if not _check_fixed(q, ed, w, i, j, ut, ca, COARSEN_STEPS):
+        return False
+    for k in range(4):
+        ctrl[g, k] = ca[k]
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca):
-    """Each segment's handles on the coarsest grid (shift max_shift down to 1) on which the
-    segment still fits its span (_check_fixed); segments of one edge keep theirs. The
+    """Each segment's handles on the coarsest grid (shift max_shift down to 0) on which the
+    segment still fits its span (_check_fixed); segments of one edge try shift 0 alone. The
     handles' residuals are rounded to multiples of 2**shift in the chord's frame (see
-    _handle_frame); a grid that rounds them as the coarser one before did is not checked
-    again."""
+    _handle_frame; shift 0 is the 1/QUANT px grid itself, where that frame is exact: the
+    handles rounded to it); a grid that rounds them as the coarser one before did is not
+    checked again. Where even the 1/QUANT grid fails, the other roundings of the four
+    coordinates (up instead of to the nearest, down instead) are tried in turn; a segment
+    none of them fits keeps its handles."""
     for g in range(m):
         i = ends[g]
         j = ends[g + 1]
-        if j - i < 2:
-            continue
+        top = max_shift if j - i >= 2 else 0
         ax, ay, nx, ny, tx, ty, sg, p, qq, ha, hc, ra, rc = _handle_frame(q, i, j, ctrl[g])
         p1 = p2 = p3 = p4 = np.int64(0)  # the previous grid's terms
-        for shift in range(max_shift, 0, -1):
-            a1 = _on_grid(ha, shift)
-            c1 = _on_grid(hc, shift)
-            a2 = _on_grid(ra, shift)
-            c2 = _on_grid(rc, shift)
-            if shift < max_shift and a1 == p1 and c1 == p2 and a2 == p3 and c2 == p4:
+        placed = False
+        for shift in range(top, -1, -1):
+            if shift > 0:
+                a1 = _on_grid(ha, shift)
+                c1 = _on_grid(hc, shift)
+                a2 = _on_grid(ra, shift)
+                c2 = _on_grid(rc, shift)
+            else:
+                a1, c1, a2, c2 = ha, hc, ra, rc
+            if shift < top and a1 == p1 and c1 == p2 and a2 == p3 and c2 == p4:
                 continue
             p1, p2, p3, p4 = a1, c1, a2, c2
             hx, hy = _from_frame(sg, p, qq, a1, c1)
@@ -608,12 +632,19 @@ def _coarsen(q, ed, w, ends, ctrl, m, u, ut, max_shift, ca):
             ca[1] = (ay + ty + hy) / QUANT
             ca[2] = (nx - tx + rx) / QUANT
             ca[3] = (ny - ty + ry) / QUANT
-            for k in range(i, j + 1):
-                ut[k] = u[k]
-            if _check_fixed(q, ed, w, i, j, ut, ca, COARSEN_STEPS):
-                for k in range(4):
-                    ctrl[g, k] = ca[k]
+            placed = _take_if_fits(q, ed, w, i, j, u, ut, ca, ctrl, g)
+            if placed:
                 break
+        for flip in range(1, 16):
+            if placed:
+                break
+            for k in range(4):
+                v = ctrl[g, k] * QUANT
+                r = math.floor(v + 0.5)
+                if (flip >> k) & 1:
+                    r = r - 1.0 if r > v else r + 1.0
+                ca[k] = r / QUANT
+            placed = _take_if_fits(q, ed, w, i, j, u, ut, ca, ctrl, g)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -705,10 +736,12 @@ def _start_index(pts, o, n):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _joint_at(q, reach, k, grid):
+def _joint_at(q, reach, k, grid, on_file_grid):
     """Where point k goes when it is a joint, in q[k, 2:4]: each coordinate within reach[k]
     of a multiple of grid (> 0) moves onto it, x first, y if the move in both stays within
-    that reach; the point stays where it is when grid is 0."""
+    that reach; the point stays where it is when grid is 0. With on_file_grid the result
+    is then rounded to the 1/QUANT px grid (halves up: at most 1/(2 QUANT) px more a
+    coordinate; none for a coordinate on an anchor grid of multiples of 1/QUANT)."""
     x = q[k, 0]
     y = q[k, 1]
     q[k, 2] = x
@@ -725,6 +758,9 @@ def _joint_at(q, reach, k, grid):
         dy = ry - y
         if dx * dx + dy * dy <= lim * lim:
             q[k, 3] = ry
+    if on_file_grid:
+        q[k, 2] = math.floor(q[k, 2] * QUANT + 0.5) / QUANT
+        q[k, 3] = math.floor(q[k, 3] * QUANT + 0.5) / QUANT
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -785,7 +821,7 @@ def fit_many_kernel(points, tol, offsets, closed, cos_snap, coarsen, anchor_grid
             nn = n
         for k in range(nn):
             wq[k] = 1.0 / (tq[k] * tq[k])
-            _joint_at(q, rq, k, anchor_grid if closed[p] or 0 < k < nn - 1 else 0.0)
+            _joint_at(q, rq, k, anchor_grid if closed[p] or 0 < k < nn - 1 else 0.0, coarsen > 0)
         _edges(q, tq, nn, ed)
         m = _fit_open(
             q, ed, wq, nn, closed[p], cos_snap, cum, u, ut, c, cbest, work, ends, ctrl, ca, cb, coarsen
@@ -1035,8 +1071,7 @@ def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
     """Twin of _coarsen, with format/isoph.py's plain frame (entropy_ref)."""
     for g in range(len(ctrl)):
         i, j = ends[g], ends[g + 1]
-        if j - i < 2:
-            continue
+        top = max_shift if j - i >= 2 else 0
         c = ctrl[g]
         a = [rnd(q[i, 2] * QUANT), rnd(q[i, 3] * QUANT)]
         n = [rnd(q[j, 2] * QUANT), rnd(q[j, 3] * QUANT)]
@@ -1045,8 +1080,8 @@ def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
         h = to_frame(frame, rnd(c[0] * QUANT) - a[0] - t[0], rnd(c[1] * QUANT) - a[1] - t[1])
         r = to_frame(frame, rnd(c[2] * QUANT) - n[0] + t[0], rnd(c[3] * QUANT) - n[1] + t[1])
         tried = None
-        for shift in range(max_shift, 0, -1):
-            terms = [((v + (1 << (shift - 1))) >> shift) << shift for v in (*h, *r)]
+        for shift in range(top, -1, -1):
+            terms = [((v + (1 << (shift - 1))) >> shift) << shift if shift else v for v in (*h, *r)]
             if terms == tried:
                 continue  # rounds as the coarser grid did: that one failed
             tried = terms
@@ -1057,6 +1092,16 @@ def _coarsen_ref(q, tol, ends, ctrl, u, max_shift):
             if _check_fixed_ref(q, tol, i, j, u.copy(), cg, COARSEN_STEPS):
                 ctrl[g] = cg
                 break
+        else:
+            v = c * QUANT
+            near = np.floor(v + 0.5)
+            other = np.where(near > v, near - 1.0, near + 1.0)
+            for flip in range(1, 16):
+                bits = np.array([(flip >> k) & 1 for k in range(4)], bool)
+                cg = np.where(bits, other, near) / QUANT
+                if _check_fixed_ref(q, tol, i, j, u.copy(), cg, COARSEN_STEPS):
+                    ctrl[g] = cg
+                    break
 
 
 def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
@@ -1104,7 +1149,7 @@ def fit_open_ref(q, tol, closed, cos_snap, coarsen=0):
     return ends, ctrl
 
 
-def _joints_ref(q, reach, closed, grid):
+def _joints_ref(q, reach, closed, grid, on_file_grid=False):
     """Twin of _joint_at for every point: q (n, 2) becomes (n, 4)."""
     qa = q.copy()
     if grid > 0.0:
@@ -1118,6 +1163,8 @@ def _joints_ref(q, reach, closed, grid):
         qa[my, 1] = r[my, 1]
         if not closed:
             qa[[0, -1]] = q[[0, -1]]
+    if on_file_grid:
+        qa = np.floor(qa * QUANT + 0.5) / QUANT
     return np.concatenate([q, qa], axis=1)
 
 
@@ -1142,7 +1189,7 @@ def fit_polyline_ref(points, tol, closed, cos_snap, coarsen=0, anchor_grid=0.0, 
         rc = np.concatenate([rc, rc[:1]])
     else:
         q, t, rc = points.copy(), tol.copy(), reach
-    q = _joints_ref(q, rc, closed, anchor_grid)
+    q = _joints_ref(q, rc, closed, anchor_grid, coarsen > 0)
     ends, ctrl = fit_open_ref(q, t, closed, cos_snap, coarsen)
     rows = [q[0, 2:]]
     for g, c in enumerate(ctrl):

@@ -21,6 +21,12 @@ polyline point k and every point x of the returned chain:
   at the same joint (``chain[-1] == chain[0]``); every joint is an input point, or with
   ``anchor_grid`` > 0 one moved onto that grid by at most its reach (<= its tolerance;
   the joint is then where the tests above place the curve's end);
+* with ``coarsen`` > 0 (the file's grids) every joint, ends included, is then rounded to
+  the 1/64 px grid, and each segment's handles are put on a grid of the file's and checked
+  there: the coarsest that fits, else the 1/64 px grid itself, else another rounding of
+  their four coordinates to it; only a segment none of those fits (under 0.1 % of the
+  encoder's) keeps handles off that grid. So the file's rounding of such a chain moves
+  nothing, and the tests above hold for the stored chain;
 * output is finite and deterministic (same input, same bytes).
 
 The chain layout and the coordinate convention are those of :mod:`isophote.model`.
@@ -100,8 +106,9 @@ def fit_polyline(points, tol, closed, snap=20.0, coarsen=0, anchor_grid=0.0, rea
     snap : float, optional
         G1 snapping threshold in degrees, in [0, 90); 0 disables snapping.
     coarsen : int, optional
-        > 0 puts each segment's handles on the coarsest of the file's handle grids (up to
-        2**coarsen / 64 px, in the chord's frame) on which it still fits; 0 leaves them.
+        > 0 puts the joints on the file's 1/64 px grid and each segment's handles on the
+        coarsest of the file's handle grids (up to 2**coarsen / 64 px, in the chord's
+        frame, down to 1/64 px) on which it still fits; 0 leaves them.
     anchor_grid : float, optional
         > 0 moves each joint onto the multiples of ``anchor_grid`` px in every coordinate
         within its point's ``reach`` of one (not the ends of an open polyline); 0 leaves
@@ -113,8 +120,8 @@ def fit_polyline(points, tol, closed, snap=20.0, coarsen=0, anchor_grid=0.0, rea
     -------
     chain : (1 + 3m, 2) float64 ndarray
         ``P0, C0a, C0b, P1, ..., Pm`` with m >= 1. Open: ``P0 == points[0]`` and
-        ``Pm == points[-1]``. Closed: ``Pm == P0``, the sharpest turn's point (moved onto
-        the anchor grid if it may be).
+        ``Pm == points[-1]`` (rounded to 1/64 px with ``coarsen`` > 0). Closed:
+        ``Pm == P0``, the sharpest turn's point (moved onto the anchor grid if it may be).
 
     Notes
     -----

@@ -218,8 +218,8 @@ and cap values ``>> s_v`` likewise. ``bucket(v)`` is the bit length of |v|, at m
    cc = -1), in a model chosen by the band's relation (0, 1 or other).
 
 The exact contexts and the order of every bit are those of the two implementations, which
-the tests hold to the same bytes. On the corpus photographs this coding takes about 36 bits a
-segment, everything included: 0.57 of the column layout under zlib (benchmarks/coding.py and
+the tests hold to the same bytes. On the corpus photographs this coding takes about 35 bits a
+segment, everything included: 0.51 of the column layout under zlib (benchmarks/coding.py and
 benchmarks/results/coding.md, which measure each step and stream).
 
 Version 3
