@@ -2,7 +2,6 @@
 orientation, caps, background), colour depth, and their command-line doors. Small synthetic
 images with known answers; the corpus numbers live in benchmarks/apply.py."""
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -14,7 +13,7 @@ from isophote.apply import equalise as E
 from isophote.errors import OptionError
 from isophote.apply import warp as W
 from isophote.imageio import write_image
-from isophote.model import CAP_RAMP, DOME, Channel, VectorImage
+from isophote.model import CAP_RAMP, DOME, Channel
 
 H, WD = 40, 56  # not square, so that transposition bugs show
 
@@ -362,7 +361,6 @@ def test_warp_matches_a_raster_rotation_of_the_render(vi):
     from skimage.transform import warp as sk_warp
 
     t = W.rotation(20, (WD / 2, H / 2))
-    inv = t.inverse()
     big = vi.render(scale=4).astype(float)
     s4 = W.Affine([[4, 0, 0], [0, 4, 0]])
     inv4 = s4.inverse().then(t).then(s4).inverse()
