@@ -197,7 +197,7 @@ RENDER_FLAGS = {
     "crop": dict(type=_crop, metavar="X,Y,W,H", help="render only this rectangle, in source pixels"),
     "fill": dict(choices=FILLS, help="fill between contours"),
     "distance": dict(choices=DISTANCES, help="distance used by the diffusion fill"),
-    "supersample": dict(type=int, metavar="N", help="N x N samples per output pixel, box-filtered"),
+    "supersample": dict(type=int, metavar="N", help="N x N samples per output pixel, box-filtered: for flat fill (diffusion is smooth already, and blurs)"),
     "sharpen": dict(type=float, metavar="K", help="sharpening of enlargements (0 = off; no effect at or below 1x)"),
     "depth": dict(type=int, choices=DEPTHS, help="bits per channel of the output (16: PNG or TIFF)"),
     "max_pixels": dict(type=int, metavar="N", help="refuse outputs larger than this many pixels"),
