@@ -178,7 +178,9 @@ def cap_value_step(eps: float) -> float:
 # coarsen > 0), so the ribbon is shrunk only by what a coarser QUANT would round beyond that
 # grid (benchmarks/coding.py tries some). Against shrinking every ribbon by the rounding's
 # largest move (0.011 px; most ribbons are 0.05 px wide in the paper preset), this saves
-# 5-8 % of the bytes: see the commit that made it.
+# 7 % of the paper preset's bytes for 0.06 dB (benchmarks/results/coding.md, "whole
+# ribbon"). The 0.04-0.6 % of segments whose handles no rounding fits are rounded by the
+# file and may leave their ribbon by up to 0.75 * sqrt(2) / 128 px (0.008 px).
 _ROUNDING = 0.0 if QUANT == FIT_QUANT else 0.5 / QUANT * np.sqrt(2.0)
 # A joint's rounding onto the file's grid moves it by up to this; its reach onto the anchor
 # grid leaves room for it, so a joint stays within its point's tolerance.
