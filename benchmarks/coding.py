@@ -38,14 +38,13 @@ as the encoder did before its fitter checked the segments on the file's grid its
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 import zlib
 
 import numpy as np
 
-from corpus import corpus_sizes, load_corpus
+from corpus import corpus_of, corpus_parser, corpus_sizes
 import isophote
 import isophote.encoder as encoder
 from isophote import metrics
@@ -150,14 +149,12 @@ def stream_bytes_columns(checked) -> dict:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--images", default="astronaut,coffee,chelsea,camera,rocket")
+    ap = corpus_parser(__doc__)
     ap.add_argument("--quants", default="64,32,16,8")
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results"))
     args = ap.parse_args(argv)
     names = args.images.split(",")
     quants = [int(q) for q in args.quants.split(",")]
-    corpus = load_corpus(tuple(names))
+    corpus = corpus_of(args)
     png = {n: s.png_bytes for n, s in corpus_sizes(corpus).items()}
     warm = isophote.encode(np.zeros((8, 8, 3), np.uint8) + np.arange(8)[:, None, None] * 30)  # compile
     warm.render()

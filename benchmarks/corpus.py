@@ -16,6 +16,7 @@ offline. Benchmarks may import Pillow; the isophote core may not.
 
 from __future__ import annotations
 
+import argparse
 import io
 import os
 from dataclasses import dataclass
@@ -70,6 +71,24 @@ def load_image(name: str) -> np.ndarray:
         if im.mode not in ("L", "RGB"):
             im = im.convert("L" if im.mode in ("1", "I", "I;16", "LA") else "RGB")
         return np.asarray(im).copy()
+
+
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+
+
+def corpus_parser(doc: str) -> argparse.ArgumentParser:
+    """The argument parser of a benchmark over the corpus, described by the first line of
+    its ``doc``: ``--images`` (comma-separated names, the whole corpus by default) and
+    ``--out`` (the folder its report goes to, benchmarks/results by default)."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--images", default=",".join(CORPUS))
+    ap.add_argument("--out", default=RESULTS)
+    return ap
+
+
+def corpus_of(args) -> dict:
+    """The photographs that ``--images`` names, as :func:`load_corpus` gives them."""
+    return load_corpus(tuple(args.images.split(",")))
 
 
 def load_corpus(names=tuple(CORPUS)) -> dict:

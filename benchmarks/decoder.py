@@ -10,13 +10,12 @@ Writes a markdown table.
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 
 import numpy as np
 
-from corpus import load_corpus
+from corpus import corpus_of, corpus_parser
 import isophote
 from isophote import metrics
 from isophote.render import quantise, render_float
@@ -40,12 +39,10 @@ def score(img, out):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--images", default="astronaut,coffee,chelsea,camera,rocket")
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results"))
+    ap = corpus_parser(__doc__)
     ap.add_argument("--no-4k", action="store_true", help="skip the 3840-wide timing")
     args = ap.parse_args(argv)
-    corpus = load_corpus(tuple(args.images.split(",")))
+    corpus = corpus_of(args)
     isophote.encode(np.zeros((8, 8, 3), np.uint8)).render()  # compile the kernels first
     lines = [
         "| image | fill | distance | ss | PSNR dB | SSIMULACRA2 | FLIP | render s |",

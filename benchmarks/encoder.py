@@ -9,25 +9,22 @@ against the PNG bytes (Pillow, optimize=True) and against the raw pixel data, en
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 
 import numpy as np
 
-from corpus import corpus_sizes, load_corpus
+from corpus import corpus_of, corpus_parser, corpus_sizes
 import isophote
 from isophote.format.isoph import dumps
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--images", default="astronaut,coffee,chelsea,camera,rocket")
+    ap = corpus_parser(__doc__)
     ap.add_argument("--preset", default="paper")
     ap.add_argument("--repeat", type=int, default=2)
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results"))
     args = ap.parse_args(argv)
-    corpus = load_corpus(tuple(args.images.split(",")))
+    corpus = corpus_of(args)
     sizes = corpus_sizes(corpus)
     isophote.encode(np.zeros((8, 8, 3), np.uint8) + np.arange(8)[:, None, None] * 30)  # compile
     lines = [

@@ -19,7 +19,6 @@ a marked pixel, the coarse one elsewhere (luma PSNR against the original).
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
@@ -28,7 +27,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from corpus import CORPUS, load_corpus  # noqa: E402
+from corpus import corpus_of, corpus_parser  # noqa: E402
 
 BOUNDS = (3.0, 5.0)
 PRESETS = ("paper", "balanced")
@@ -94,11 +93,8 @@ def measure(img, preset):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--images", default=",".join(CORPUS))
-    ap.add_argument("--out", default=os.path.join(HERE, "results"))
-    args = ap.parse_args(argv)
-    corpus = load_corpus(tuple(args.images.split(",")))
+    args = corpus_parser(__doc__).parse_args(argv)
+    corpus = corpus_of(args)
     lines = ["# Local level splitting (§6): what it could save", "",
              "Segments of the intermediate levels' loops that lie wholly where the coarse render "
              "(doubled steps) is within the bound of the original, in every channel "

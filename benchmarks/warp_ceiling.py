@@ -14,7 +14,6 @@ a cubic spline's values on the 2x grid and on a 4x grid, each read bilinearly.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
@@ -25,7 +24,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 from apply import psnr_masked, raster_warp, warp_cases, warp_reference  # noqa: E402
-from corpus import CORPUS, load_corpus  # noqa: E402
+from corpus import corpus_of, corpus_parser  # noqa: E402
 from peers import downscale  # noqa: E402
 
 from isophote.encoder.mapping import map_pixels  # noqa: E402
@@ -73,11 +72,8 @@ def measure(img):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--images", default=",".join(CORPUS))
-    ap.add_argument("--out", default=os.path.join(HERE, "results"))
-    args = ap.parse_args(argv)
-    corpus = load_corpus(tuple(args.images.split(",")))
+    args = corpus_parser(__doc__).parse_args(argv)
+    corpus = corpus_of(args)
     results = {name: measure(img) for name, img in corpus.items()}
     cols = list(next(iter(next(iter(results.values())).values())))
     lines = ["# Warps: the encoder's interpolant alone (issue 5)", "",
