@@ -86,6 +86,24 @@ def corpus_parser(doc: str) -> argparse.ArgumentParser:
     return ap
 
 
+class Report(list):
+    """A benchmark's report as it is made: ``report(line)`` prints the line and keeps it."""
+
+    def __call__(self, line: str = "") -> None:
+        print(line, flush=True)
+        self.append(line)
+
+
+def write_report(out: str, name: str, lines: list) -> str:
+    """Write a benchmark's report: ``lines`` as the file OUT/NAME, each ended by a newline.
+    Returns its path."""
+    os.makedirs(out, exist_ok=True)
+    path = os.path.join(out, name)
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
 def corpus_of(args) -> dict:
     """The photographs that ``--images`` names, as :func:`load_corpus` gives them."""
     return load_corpus(tuple(args.images.split(",")))

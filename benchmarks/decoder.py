@@ -10,12 +10,11 @@ Writes a markdown table.
 
 from __future__ import annotations
 
-import os
 import time
 
 import numpy as np
 
-from corpus import corpus_of, corpus_parser
+from corpus import corpus_of, corpus_parser, write_report
 import isophote
 from isophote import metrics
 from isophote.render import quantise, render_float
@@ -75,9 +74,7 @@ def main(argv=None):
     lines += ["", "| image | size | encode s | render 3840 wide s |", "|---|---|---|---|"]
     for name, w, h, enc, t4k in timings:
         lines.append(f"| {name} | {w}x{h} | {enc:.2f} | {'-' if t4k is None else f'{t4k:.2f}'} |")
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "decoder.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_report(args.out, "decoder.md", lines)
     print("\n".join(lines[-(len(timings) + 12):]))
 
 

@@ -9,12 +9,11 @@ against the PNG bytes (Pillow, optimize=True) and against the raw pixel data, en
 
 from __future__ import annotations
 
-import os
 import time
 
 import numpy as np
 
-from corpus import corpus_of, corpus_parser, corpus_sizes
+from corpus import corpus_of, corpus_parser, corpus_sizes, write_report
 import isophote
 from isophote.format.isoph import dumps
 
@@ -48,9 +47,7 @@ def main(argv=None):
             f"| {len(data) / raw:.2f} | {best:.2f} |"
         )
         print(lines[-1], flush=True)
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, f"encoder_{args.preset}.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_report(args.out, f"encoder_{args.preset}.md", lines)
 
 
 if __name__ == "__main__":

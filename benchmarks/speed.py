@@ -33,7 +33,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from corpus import load_corpus  # noqa: E402
+from corpus import Report, load_corpus, write_report  # noqa: E402
 from peers import VTRACER_PRESETS, VTRACER_SETTINGS, best_of  # noqa: E402
 
 # vtracer's high-fidelity setting: finest colour (8 bits, layers 4 apart), as run.py's last row
@@ -82,6 +82,13 @@ isophote.encode(im, preset={preset!r})
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 print(json.dumps(dict(peak_mb=peak / 1024, added_mb=(peak - base) / 1024)))
 """
+
+
+def vtracer_pixels(img: np.ndarray) -> list:
+    """An RGB image as vtracer's convert_pixels_to_svg takes it: opaque RGBA tuples."""
+    h, w = img.shape[:2]
+    rgba = np.dstack([img, np.full((h, w), 255, np.uint8)])
+    return [tuple(p) for p in rgba.reshape(-1, 4).tolist()]
 
 
 def encode_peak(size: int) -> dict:
@@ -151,15 +158,9 @@ def main(argv=None):
 
     img = load_corpus(("astronaut",))["astronaut"]
     h, w = img.shape[:2]
-    lines = [f"# Speed (astronaut, {PRESET} preset)", ""]
-
-    def say(s=""):
-        print(s, flush=True)
-        lines.append(s)
-
+    say = Report([f"# Speed (astronaut, {PRESET} preset)", ""])
     isophote.encode(img[:64, :64], preset=PRESET).render()  # compile or load the kernels
-    rgba = np.dstack([img, np.full((h, w), 255, np.uint8)])
-    pixels = [tuple(p) for p in rgba.reshape(-1, 4).tolist()]
+    pixels = vtracer_pixels(img)
     enc = venc = np.inf
     for _ in range(max(repeat, 3)):  # in turns, so that both see the same machine
         vi, e = best_of(lambda: isophote.encode(img, preset=PRESET), 1)
@@ -214,9 +215,7 @@ def main(argv=None):
     subprocess.run([sys.executable, "-m", "isophote", "--help"], capture_output=True, check=True)
     say()
     say(f"`isophote --help`: {time.perf_counter() - t:.2f} s (including the interpreter's start).")
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "speed.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_report(args.out, "speed.md", say)
 
 
 if __name__ == "__main__":

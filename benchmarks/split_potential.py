@@ -27,7 +27,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from corpus import corpus_of, corpus_parser  # noqa: E402
+from corpus import corpus_of, corpus_parser, write_report  # noqa: E402
 
 BOUNDS = (3.0, 5.0)
 PRESETS = ("paper", "balanced")
@@ -119,9 +119,7 @@ def main(argv=None):
                      + " | ".join(f"**{tot[f'drop_{b:g}'] / tot['fine']:.1%}**" for b in BOUNDS)
                      + f" | {tot['y_fine'] / k:.2f} | {tot['y_coarse'] / k:.2f} | "
                      + " | ".join(f"{tot[f'y_hybrid_{b:g}'] / k:.2f}" for b in BOUNDS) + " |")
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "split_potential.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_report(args.out, "split_potential.md", lines)
     print("\n".join(lines))
 
 

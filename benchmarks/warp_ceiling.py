@@ -24,7 +24,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 from apply import psnr_masked, raster_warp, warp_cases, warp_reference  # noqa: E402
-from corpus import corpus_of, corpus_parser  # noqa: E402
+from corpus import corpus_of, corpus_parser, write_report  # noqa: E402
 from peers import downscale  # noqa: E402
 
 from isophote.encoder.mapping import map_pixels  # noqa: E402
@@ -88,10 +88,7 @@ def main(argv=None):
     for case in WARPS:
         lines.append(f"| **mean** | {case} | " + " | ".join(
             f"**{np.mean([results[n][case][c] for n in results]):.2f}**" for c in cols) + " |")
-    os.makedirs(args.out, exist_ok=True)
-    path = os.path.join(args.out, "warp_ceiling.md")
-    with open(path, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    path = write_report(args.out, "warp_ceiling.md", lines)
     print("\n".join(lines[-3:]))
     print(f"wrote {path}")
 
