@@ -4,8 +4,8 @@ The fitter (_kernels/fit.py, step 1) searches for each segment's longest span: i
 about four spans for every one it keeps. This script measures what the encode would cost
 if the search were free, with an oracle that knows every segment's span in advance:
 
-1. The channels of astronaut (paper preset, the issue's measure) are encoded one at a time,
-   and the fitter's input is kept.
+1. Astronaut is encoded (paper preset, the issue's measure) and the fit kernel's input
+   is kept, a batch per channel.
 2. The fit kernel, patched (benchmarks/fit_variants.py), fits that input four ways: as the
    encoder does; the search alone (no G1 snapping, no coarse handles); each recorded span
    fitted once, then snapped and coarsened (the oracle: the same chains, checked); each
@@ -34,48 +34,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 from corpus import Report, load_corpus, write_report  # noqa: E402
-from fit_variants import compile_kernel, patched_kernel, run  # noqa: E402
+from fit_variants import compile_kernel, encoder_batches, patched_kernel, run  # noqa: E402
 from peers import best_of  # noqa: E402
 from speed import HIGH_FIDELITY, PRESET, stage_times, vtracer_pixels  # noqa: E402
 
 MODES = {0: "as the encoder fits", 2: "the search alone", 1: "oracle, snapped and coarsened",
          3: "oracle alone"}
-
-
-def fitter_inputs(img: np.ndarray) -> list[tuple]:
-    """The fit kernel's arguments for each channel's batch, as the encoder passes them."""
-    from isophote import encoder
-    from isophote.colour import rgb_to_yuv
-    from isophote.encoder import fit as F
-    from isophote.encoder.isolines import find_isolines
-    from isophote.encoder.levels import channel_levels
-    from isophote.encoder.mapping import map_pixels
-    from isophote.encoder.noise import prepare_plane
-    from isophote.options import EncodeOptions, make
-
-    opts = make(EncodeOptions, {"preset": PRESET}).resolved()
-    pixels, _ = encoder._as_pixels(img)
-    yuv = rgb_to_yuv(pixels[..., :3])
-    calls = []
-    real = encoder.fit_many
-
-    def keep(points, tol, offsets, closed, snap=20.0, coarsen=0, anchor_grid=0.0, reach=None):
-        calls.append((np.ascontiguousarray(points, np.float64), np.ascontiguousarray(tol, np.float64),
-                      np.ascontiguousarray(offsets, np.int64), np.ascontiguousarray(closed, np.bool_),
-                      F._cos_snap(snap), int(coarsen), F._anchor_grid(anchor_grid), F._reach(reach, tol)))
-        return real(points, tol, offsets, closed, snap, coarsen, anchor_grid, reach)
-
-    encoder.fit_many = keep
-    try:
-        for i, name in enumerate("YUV"):
-            levels = channel_levels(name, opts)
-            plane, eps = prepare_plane(name, yuv[..., i], 0.5, levels, opts)
-            grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, opts.carrato_cubic)
-            encoder.fit_isolines(find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance),
-                                 opts.snap)
-    finally:
-        encoder.fit_many = real
-    return calls
 
 
 def fit_times(kernel, calls: list[tuple]) -> tuple[dict, int, int, int]:
@@ -120,7 +84,7 @@ def main(argv=None):
         vtracer.convert_pixels_to_svg(pixels, size=(w, h), **HIGH_FIDELITY)
         return time.process_time() - c
 
-    calls = fitter_inputs(img)
+    calls = encoder_batches(img, PRESET)
     cores = min(len(os.sched_getaffinity(0)), 2 * len(calls))
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

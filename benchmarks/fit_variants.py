@@ -132,3 +132,27 @@ def compile_kernel(kernel, args: tuple) -> None:
     n = int(min(np.searchsorted(offsets, 2000), offsets.shape[0] - 1))
     end = int(offsets[n])
     run(kernel, (points[:end], tol[:end], offsets[: n + 1], closed[:n], *args[4:7], args[7][:end]), 0)
+
+
+def encoder_batches(img: np.ndarray, preset: str) -> list[tuple]:
+    """The fit kernel's arguments as the encoder passes them, one batch a channel (in the
+    order the encoder's threads reach the fit)."""
+    import isophote
+    from isophote.encoder import fit as F
+
+    calls = []
+    real = F.fit_many_kernel
+
+    def keep(*args):
+        calls.append(tuple(np.copy(a) if isinstance(a, np.ndarray) else a for a in args))
+        return real(*args)
+
+    saved = F.PARALLEL_POINTS
+    F.fit_many_kernel = keep
+    F.PARALLEL_POINTS = 1 << 62  # one batch a channel
+    try:
+        isophote.encode(img, preset=preset)
+    finally:
+        F.fit_many_kernel = real
+        F.PARALLEL_POINTS = saved
+    return calls

@@ -30,34 +30,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 from corpus import Report, corpus_of, corpus_parser, write_report  # noqa: E402
-from fit_variants import compile_kernel, patched_kernel, run  # noqa: E402
+from fit_variants import compile_kernel, encoder_batches, patched_kernel, run  # noqa: E402
 
 PROBES = (0, 2, 4)
 SNAPS = (20.0, 89.0)
-
-
-def batches(img: np.ndarray, preset: str) -> list[tuple]:
-    """The fit kernel's arguments for each of the encoder's batches on img."""
-    from isophote.encoder import fit as F
-
-    calls = []
-    real = F.fit_many_kernel
-
-    def keep(*args):
-        calls.append(tuple(np.copy(a) if isinstance(a, np.ndarray) else a for a in args))
-        return real(*args)
-
-    import isophote
-
-    saved = F.PARALLEL_POINTS
-    F.fit_many_kernel = keep
-    F.PARALLEL_POINTS = 1 << 62  # one batch a channel
-    try:
-        isophote.encode(img, preset=preset)
-    finally:
-        F.fit_many_kernel = real
-        F.PARALLEL_POINTS = saved
-    return calls
 
 
 def fewest(kernel, calls: list[tuple], stride: int) -> tuple[int, int]:
@@ -135,7 +111,7 @@ def main(argv=None):
         say("|---|---|---|---|---|")
         for preset in presets:
             for name, img in corpus.items():
-                calls = batches(img, preset)
+                calls = encoder_batches(img, preset)
                 compile_kernel(kernel, calls[-1])
                 g, b = fewest(kernel, calls, args.stride)
                 say(f"| {preset} | {name} | {g:,} | {b:,} | {b / g:.3f} |")
