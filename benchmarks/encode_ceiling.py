@@ -33,7 +33,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from corpus import Report, load_corpus, write_report  # noqa: E402
+from corpus import RESULTS, Report, load_corpus, write_report  # noqa: E402
 from fit_variants import compile_kernel, encoder_batches, patched_kernel, run  # noqa: E402
 from peers import best_of  # noqa: E402
 from speed import HIGH_FIDELITY, PRESET, stage_times, vtracer_pixels  # noqa: E402
@@ -66,7 +66,7 @@ def fit_times(kernel, calls: list[tuple]) -> tuple[dict, int, int, int]:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5)
-    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    ap.add_argument("--out", default=RESULTS)
     args = ap.parse_args(argv)
 
     import isophote

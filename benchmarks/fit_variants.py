@@ -126,12 +126,20 @@ def run(kernel, args: tuple, mode: int, probe: int = 0, orc=None, stats=None):
     return chains, offsets, orc, stats
 
 
+def sub_batch(args: tuple, sel: np.ndarray) -> tuple:
+    """The kernel's arguments ``args`` (points .. reach) for the polylines ``sel`` alone."""
+    points, tol, offsets, closed, cos_snap, coarsen, grid, reach = args
+    size = offsets[sel + 1] - offsets[sel]
+    idx = np.repeat(offsets[sel] - (np.cumsum(size) - size), size) + np.arange(int(size.sum()))
+    sub_off = np.concatenate([[0], np.cumsum(size)]).astype(np.int64)
+    return points[idx], tol[idx], sub_off, closed[sel], cos_snap, coarsen, grid, reach[idx]
+
+
 def compile_kernel(kernel, args: tuple) -> None:
     """Compile (every mode shares one signature) on the first polylines of a batch."""
-    points, tol, offsets, closed = args[:4]
+    offsets = args[2]
     n = int(min(np.searchsorted(offsets, 2000), offsets.shape[0] - 1))
-    end = int(offsets[n])
-    run(kernel, (points[:end], tol[:end], offsets[: n + 1], closed[:n], *args[4:7], args[7][:end]), 0)
+    run(kernel, sub_batch(args, np.arange(n)), 0)
 
 
 def encoder_batches(img: np.ndarray, preset: str) -> list[tuple]:

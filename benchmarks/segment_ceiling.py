@@ -30,7 +30,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 from corpus import Report, corpus_of, corpus_parser, write_report  # noqa: E402
-from fit_variants import compile_kernel, encoder_batches, patched_kernel, run  # noqa: E402
+from fit_variants import compile_kernel, encoder_batches, patched_kernel, run, sub_batch  # noqa: E402
 
 PROBES = (0, 2, 4)
 SNAPS = (20.0, 89.0)
@@ -39,13 +39,8 @@ SNAPS = (20.0, 89.0)
 def fewest(kernel, calls: list[tuple], stride: int) -> tuple[int, int]:
     """(greedy, fewest) segment counts over every stride-th polyline of the batches."""
     greedy = best = 0
-    for points, tol, offsets, closed, *rest in calls:
-        sel = np.arange(0, closed.shape[0], stride)
-        size = offsets[sel + 1] - offsets[sel]
-        idx = np.repeat(offsets[sel] - (np.cumsum(size) - size), size) + np.arange(int(size.sum()))
-        sub_off = np.concatenate([[0], np.cumsum(size)]).astype(np.int64)
-        reach = rest[3]
-        _, _, _, stats = run(kernel, (points[idx], tol[idx], sub_off, closed[sel], *rest[:3], reach[idx]), 4)
+    for args in calls:
+        _, _, _, stats = run(kernel, sub_batch(args, np.arange(0, args[3].shape[0], stride)), 4)
         best += int(stats[2])
         greedy += int(stats[3])
     return greedy, best

@@ -33,7 +33,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from corpus import Report, load_corpus, write_report  # noqa: E402
+from corpus import RESULTS, Report, load_corpus, write_report  # noqa: E402
 from peers import VTRACER_PRESETS, VTRACER_SETTINGS, best_of  # noqa: E402
 
 # vtracer's high-fidelity setting: finest colour (8 bits, layers 4 apart), as run.py's last row
@@ -147,7 +147,7 @@ def stage_times(img: np.ndarray, repeat: int) -> dict:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    ap.add_argument("--out", default=RESULTS)
     ap.add_argument("--quick", action="store_true", help="fewer sizes, one repeat")
     args = ap.parse_args(argv)
     repeat = 1 if args.quick else args.repeat

@@ -279,6 +279,12 @@ def test_coarse_handles_stay_in_the_ribbon_and_on_their_grids():
     assert np.mean(shifts >= 3) > 0.5, np.bincount(shifts)
 
 
+def handles_on_file_grid(chain):
+    """(segments,) bool: both handles of each segment lie on the 1/64 px grid."""
+    handles = np.delete(chain, np.s_[::3], axis=0).reshape(-1, 2, 2)
+    return np.all(handles * 64 == np.floor(handles * 64), axis=(1, 2))
+
+
 def test_file_grid_keeps_the_whole_ribbon():
     """coarsen > 0 on points off the 1/64 px grid: every joint is its point rounded to that
     grid, nearly every segment's handles lie on it too (found there by the fitter, which
@@ -293,8 +299,7 @@ def test_file_grid_keeps_the_whole_ribbon():
         ref = fit_polyline_ref(pts, tol, closed, math.cos(math.radians(20.0)), coarsen=5)
         np.testing.assert_allclose(chain, ref, rtol=1e-9, atol=1e-9)
         assert np.array_equal(chain[::3] * 64, np.floor(chain[::3] * 64))
-        handles = np.delete(chain, np.s_[::3], axis=0).reshape(-1, 2, 2)
-        on = np.all(handles * 64 == np.floor(handles * 64), axis=(1, 2))
+        on = handles_on_file_grid(chain)
         segments += on.size
         off_grid += int(np.sum(~on))
         if on.all():  # the file's rounding changes nothing: the stored chain is this one
@@ -315,8 +320,7 @@ def test_file_grid_on_narrow_ribbons_matches_its_twin():
         check_chain(pts, tol, closed, chain, samples=2000, joints=np.floor(pts * 64 + 0.5) / 64)
         ref = fit_polyline_ref(pts, tol, closed, math.cos(math.radians(20.0)), coarsen=5)
         np.testing.assert_allclose(chain, ref, rtol=1e-9, atol=1e-9)
-        handles = np.delete(chain, np.s_[::3], axis=0).reshape(-1, 2, 2)
-        on = np.all(handles * 64 == np.floor(handles * 64), axis=(1, 2))
+        on = handles_on_file_grid(chain)
         segments += on.size
         off_grid += int(np.sum(~on))
     assert 0 < off_grid <= 0.02 * segments, (off_grid, segments)
