@@ -48,7 +48,7 @@ from corpus import corpus_of, corpus_parser, corpus_sizes
 import isophote
 import isophote.encoder as encoder
 from isophote import metrics
-from isophote._kernels import entropy
+from isophote.format._coder import entropy
 from isophote.format import isoph
 
 STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range v3", "range"]

@@ -71,7 +71,7 @@ def main(argv=None):
 
     import isophote
     import vtracer
-    from isophote._kernels.fit import fit_many_kernel
+    from isophote.encoder._kernels.fit import fit_many_kernel
 
     img = load_corpus(("astronaut",))["astronaut"]
     h, w = img.shape[:2]

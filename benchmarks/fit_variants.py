@@ -1,6 +1,6 @@
 """Variants of the fit kernel for the ceiling benchmarks: the kernel's own source, patched.
 
-`patched_kernel(workdir)` loads src/isophote/_kernels/fit.py with PATCHES applied (each must
+`patched_kernel(workdir)` loads src/isophote/encoder/_kernels/fit.py with PATCHES applied (each must
 match once, so a change to the kernel that moves a patched line fails loudly here instead
 of measuring something else). Its ``fit_many_kernel`` takes four more arguments after
 ``reach``: ``orc`` (int64, at least points + polylines long), ``mode``, ``stats`` (int64, 4
@@ -84,8 +84,8 @@ AFTER_SEARCH = """    if mode == 0 or mode == 2 or mode == 4:
     if cos_snap < 1.0:
         # interior"""
 PATCHES = (
-    ("from .entropy import", "from isophote._kernels.entropy import"),
-    ("from .entropy_ref import", "from isophote._kernels.entropy_ref import"),
+    ("from ...shared.grid import", "from isophote.shared.grid import"),
+    ("from ...shared.grid_ref import", "from isophote.shared.grid_ref import"),
     ("ca, cb, coarsen\n):", "ca, cb, coarsen, orc, ob, mode, stats, probe\n):"),
     ("        step = 0\n        while True:", BEFORE_LOOP),
     ("            else:\n                if hi - lo <= 1:\n                    break\n                j = (lo + hi) // 2",
@@ -98,8 +98,8 @@ PATCHES = (
 
 
 def patched_kernel(workdir: str):
-    """_kernels/fit.py with PATCHES applied, written to and imported from workdir."""
-    import isophote._kernels.fit as fit
+    """encoder/_kernels/fit.py with PATCHES applied, written to and imported from workdir."""
+    import isophote.encoder._kernels.fit as fit
 
     src = inspect.getsource(fit)
     for old, new in PATCHES:

@@ -748,7 +748,7 @@ def test_joints_move_onto_samples_and_levels_never_meet_there(monkeypatch):
 def test_joint_reach_matches_its_twin(which):
     """The compiled rule (_kernels/anchors.py) equals its NumPy twin, and grants a move to
     a good share of the crossings of a photograph, never beyond 0.75 of a tolerance."""
-    from isophote._kernels.anchors import joint_reach, joint_reach_ref
+    from isophote.encoder._kernels.anchors import joint_reach, joint_reach_ref
 
     rng = np.random.default_rng(5)
     img = {

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import isophote
-from isophote._kernels import entropy as E
-from isophote._kernels import entropy_ref as R
+from isophote.format._coder import entropy as E
+from isophote.format._coder import entropy_ref as R
 from isophote.format import isoph
 
 from test_format import random_image, smooth_contour_set

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from isophote._kernels.fit import fit_polyline_ref
+from isophote.encoder._kernels.fit import fit_polyline_ref
 from isophote.encoder.fit import chain_distance, fit_many, fit_polyline
 
 # ---------------------------------------------------------------------------------------
@@ -255,7 +255,7 @@ def test_coarse_handles_stay_in_the_ribbon_and_on_their_grids():
     the anchors rounded to 1/64 px) where the segment still fits, the chain keeps every
     guarantee and its joints, most segments get a coarse grid, and the kernel equals its
     twin."""
-    from isophote._kernels.entropy_ref import chord_frame, rnd3, to_frame
+    from isophote.format._coder.entropy_ref import chord_frame, rnd3, to_frame
 
     shifts = []
     for pts, tol, closed in random_batch(11, 40):

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from isophote._kernels import entropy_ref
+from isophote.format._coder import entropy_ref
 from isophote.errors import FormatError, InputError, IsophoteError, LimitError
 from isophote.format import isoph
 from isophote.model import Channel, VectorImage

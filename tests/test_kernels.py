@@ -8,21 +8,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from isophote._kernels.diffuse import seed as seed_fields
-from isophote._kernels.diffuse import (
+from isophote.render._kernels.diffuse import seed as seed_fields
+from isophote.render._kernels.diffuse import (
     D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, label_nodes, label_nodes_ref, offsets, propagate,
     propagate_ref,
 )
-from isophote._kernels.enclose import (
+from isophote.encoder._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_ref, innermost_enclosing_rows,
 )
-from isophote._kernels.marching import (
+from isophote.encoder._kernels.marching import (
     _cubic_t, cubic_t_ref, march, march_loops, march_loops_ref, march_ref,
 )
-from isophote._kernels.raster import rasterise, rasterise_ref
-from isophote._kernels.resample import bilinear_at, bilinear_at_ref
-from isophote._kernels.sharpen import correction, correction_ref
-from isophote._kernels.regions import (
+from isophote.render._kernels.raster import rasterise, rasterise_ref
+from isophote.render._kernels.resample import bilinear_at, bilinear_at_ref
+from isophote.render._kernels.sharpen import correction, correction_ref
+from isophote.encoder._kernels.regions import (
     cap_sums, cap_sums_ref, label_regions, label_regions_ref, region_levels, region_levels_ref,
     region_stats, region_stats_ref,
 )
@@ -582,7 +582,7 @@ class _CountingNumpy:
 
 
 def test_propagate_ref_converges_on_float32_fields(monkeypatch):
-    from isophote._kernels import diffuse
+    from isophote.render._kernels import diffuse
 
     counter = _CountingNumpy()
     monkeypatch.setattr(diffuse, "np", counter)

@@ -92,7 +92,7 @@ def test_g1_fill_follows_a_curved_profile_better_than_straight_lines():
 
 
 def test_g1_slopes_agree_on_both_sides_and_keep_ramps_straight():
-    from isophote._kernels.diffuse import _pchip_slope
+    from isophote.render._kernels.diffuse import _pchip_slope
 
     rng = np.random.default_rng(3)
     for _ in range(200):
@@ -244,7 +244,7 @@ def test_sharpening_keeps_ramps_and_leaves_1x_alone(ramps, wavy):
 
 
 def test_sharpening_correction_known_answers():
-    from isophote._kernels.sharpen import correction
+    from isophote.render._kernels.sharpen import correction
     from isophote.render.sharpen import gains
 
     assert gains(0.125, 1.0, 0.5) == (0.0, 0.0)
@@ -343,7 +343,7 @@ def test_rgb_render_shapes_and_colour():
 def test_fused_colour_kernel_matches_the_numpy_path(depth, alpha):
     from isophote.colour import YUV_TO_RGB
     from isophote.render import _colour, quantise
-    from isophote._kernels.colour import yuv_quantise
+    from isophote.render._kernels.colour import yuv_quantise
 
     rng = np.random.default_rng(depth + alpha)
     # out of gamut and out of range on purpose: both clip

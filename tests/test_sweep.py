@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import skimage
 
-from isophote._kernels.enclose import innermost_enclosing
+from isophote.encoder._kernels.enclose import innermost_enclosing
 from isophote.encoder.hierarchy import build_hierarchy, loop_areas, segment_table
 from isophote.encoder.isolines import find_isolines
 from isophote.encoder.levels import preset_levels

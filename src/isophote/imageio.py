@@ -41,8 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError, IsophoteError, LimitError, OptionError
+from .limits import MAX_PIXELS
 
-MAX_INPUT_PIXELS = 100_000_000  # decompression-bomb guard: 100 MP (10000 x 10000)
+MAX_INPUT_PIXELS = MAX_PIXELS  # decompression-bomb guard (limits.py)
 
 # The Pillow plugins trusted with strangers' files: the common photographic formats. EPS
 # (which runs Ghostscript), and the long tail of rarely used parsers, are left out.

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, fields, replace
 
 from .errors import OptionError
+from .limits import MAX_PIXELS
 
 # Presets: the values of the fields left at None. Measured on the five corpus photographs
 # (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, .isoph format v4,
@@ -242,7 +243,7 @@ class RenderOptions:
     supersample: int = 1
     sharpen: float = 0.125
     depth: int = 8
-    max_pixels: int = 100_000_000
+    max_pixels: int = MAX_PIXELS
 
     def validate(self) -> None:
         if self.fill not in FILLS:

@@ -102,11 +102,11 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import OptionError
+from ..shared.grid import QUANT as VALUE_QUANT  # cap values are stored on the file's grid
 from ..model import DOME, Channel, VectorImage
 
 LEVEL_GAP = 1e-3  # grey levels: the smallest gap between reassigned levels
 LEVEL_MIN, LEVEL_MAX = 1e-3, 255.0 - 1e-3  # levels stay inside (0, 255)
-VALUE_QUANT = 64  # cap values are stored in 1/64 grey level (format/isoph.py)
 
 
 # =============================================================================================

@@ -70,12 +70,12 @@ import numpy as np
 
 from ..colour import rgb_to_yuv
 from ..errors import OptionError
+from ..shared.grid import QUANT  # coordinates are stored on the file's grid
 from ..model import Channel, VectorImage
 
 DEFAULT_TOLERANCE = 0.02  # output pixels: the error of a moved curve (encoder ribbons are >= 0.05)
 MAX_DEPTH = 18  # halvings of one segment at most (2**-18 of a segment)
 EDGE_EPS = 1e-6  # pixels: points this close outside the canvas count as on its border
-QUANT = 64  # coordinates are stored on a 1/64-pixel grid (format/isoph.py)
 BACKGROUND_GAP = 0.25  # grey levels between the background's new level and its neighbours
 JACOBIAN_STEP = 1e-3  # pixels: central differences of a PointMap without a Jacobian
 

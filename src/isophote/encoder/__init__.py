@@ -13,10 +13,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .._kernels.anchors import joint_reach
-from .._kernels.fit import QUANT as FIT_QUANT
+from ._kernels.anchors import joint_reach
+from ..shared.grid import QUANT
+from ._kernels.fit import QUANT as FIT_QUANT
 from ..colour import rgb_to_yuv
 from ..errors import InputError
+from ..limits import MAX_PIXELS
 from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
 from .fit import ANCHOR_REACH, fit_many
@@ -26,7 +28,6 @@ from .levels import channel_levels
 from .mapping import map_pixels
 from .noise import prepare_plane
 
-QUANT = 64  # control points and cap values are stored on a 1/64 grid (format/isoph.py)
 # Handles go onto grids of up to 2**HANDLE_SHIFT / QUANT px (in the chord's frame) where the
 # segment stays in its ribbon (_kernels/fit.py, step 4), and the file codes them divided by
 # that (format/isoph.py, version 4). Corpus, balanced preset, bytes against no coarse grid
@@ -43,7 +44,6 @@ HANDLE_SHIFT = 5
 ANCHOR_GRID = 0.5
 # Cap values are rounded to this fraction of the input's error (cap_value_step).
 CAP_STEP = 0.5
-MAX_PIXELS = 100_000_000
 
 
 def encode(image, **options) -> VectorImage:

@@ -42,7 +42,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._kernels.fit import fit_many_kernel
+from ._kernels.fit import fit_many_kernel
 
 __all__ = ["fit_polyline", "fit_many", "chain_distance"]
 

@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import CAP_RAMP
-from .._kernels.enclose import (
+from ._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
 )
-from .._kernels.regions import cap_sums, label_regions, region_levels, region_stats
+from ._kernels.regions import cap_sums, label_regions, region_levels, region_stats
 from .isolines import Isolines
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels.marching import march_loops, pad_bands
+from ._kernels.marching import march_loops, pad_bands
 from .ribbon import tolerances
 
 

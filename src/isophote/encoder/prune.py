@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._kernels.prune import prune_kernel
+from ._kernels.prune import prune_kernel
 
 
 def prune_extrema(plane, levels, area, contrast) -> np.ndarray:

@@ -319,7 +319,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .._kernels import entropy
+from ..shared.grid import QUANT  # coordinates in 1/QUANT px, cap values in 1/QUANT grey level
+from ._coder import entropy
 from ..errors import FormatError, LimitError
 from ..imageio import atomic_write_bytes
 from ..model import CAP_RAMP, DOME, Channel, VectorImage
@@ -329,7 +330,6 @@ from ..model import CAP_RAMP, DOME, Channel, VectorImage
 MAGIC = b"\x89ISOPH\r\n"
 FORMAT_VERSION = 4  # written
 READ_VERSIONS = (1, 2, 3, 4)  # read
-QUANT = 64  # coordinates in 1/QUANT source pixel, cap values in 1/QUANT grey level (finest grids)
 
 COLOUR_CODES = {"grey": 0, "yuv": 1}
 COLOUR_NAMES = {v: k for k, v in COLOUR_CODES.items()}

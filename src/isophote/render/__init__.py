@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..colour import YUV_TO_RGB, yuv_to_rgb
-from .._kernels.colour import yuv_quantise
+from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
 from .distance import NodeField, node_field

@@ -10,12 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels.diffuse import (
+from ._kernels.diffuse import (
     MODE_EUCLIDEAN, MODE_GEODESIC, MODE_MANHATTAN, band_widths, evaluate, label_nodes, offsets, propagate,
     region_caps, seed,
 )
-from .._kernels.raster import rasterise
-from .._kernels.sharpen import correction
+from ._kernels.raster import rasterise
+from ._kernels.sharpen import correction
 
 MODES = {"euclidean": MODE_EUCLIDEAN, "manhattan": MODE_MANHATTAN, "geodesic": MODE_GEODESIC}
 MAX_SWEEPS = 1  # one forward+backward pair: more change the corpus renders by < 0.01 dB

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import apply_tone_curve
-from .._kernels.diffuse import evaluate
-from .._kernels.raster import rasterise
+from ._kernels.diffuse import evaluate
+from ._kernels.raster import rasterise
 
 
 class StripEdges:

@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ...shared.grid import chord_frame as _frame, from_frame as _from_frame, rnd3 as _rnd3, to_frame as _to_frame
+
 # ---- coder constants -----------------------------------------------------------------------
 
 PROB_BITS = 15
@@ -348,55 +350,6 @@ def _bucket(v):
         v >>= 1
         k += 1
     return k
-
-
-@njit(cache=True, nogil=True)
-def _rnd3(v):
-    """v / 3 rounded to the nearest integer (never a tie for an integer v)."""
-    return (v + 1) // 3
-
-
-@njit(cache=True, nogil=True)
-def _round(x):
-    return np.int64(np.floor(x + 0.5))
-
-
-@njit(cache=True, nogil=True)
-def _frame(dx, dy):
-    """The chord frame of layout 3: (sign, p, q) of the integer rotation that turns the chord
-    d = (dx, dy) onto the +x axis (see _to_frame); (1, 0.0, 0.0), the identity, for d = 0."""
-    sg = np.int64(1)
-    if dx < 0 or (dx == 0 and dy < 0):  # rotate by pi first (exact): |angle| <= pi / 2 left
-        dx = -dx
-        dy = -dy
-        sg = np.int64(-1)
-    if dx == 0 and dy == 0:
-        return sg, 0.0, 0.0
-    fx = np.float64(dx)
-    fy = np.float64(dy)
-    length = np.sqrt(fx * fx + fy * fy)
-    return sg, fy / (length + fx), -fy / length
-
-
-@njit(cache=True, nogil=True)
-def _to_frame(sg, p, q, vx, vy):
-    """(along, across): v rotated by the chord frame's angle with three lifting shears
-    (x += [p y], y += [q x], x += [p y], [.] rounding to nearest; p = tan(theta/2), q = -sin
-    theta), then times sg. Exactly invertible in integers (_from_frame)."""
-    x = vx + _round(p * vy)
-    y = vy + _round(q * x)
-    x = x + _round(p * y)
-    return sg * x, sg * y
-
-
-@njit(cache=True, nogil=True)
-def _from_frame(sg, p, q, a, c):
-    x = sg * a
-    y = sg * c
-    x = x - _round(p * y)
-    y = y - _round(q * x)
-    x = x - _round(p * y)
-    return x, y
 
 
 @njit(cache=True, nogil=True)

@@ -67,8 +67,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .entropy import _frame, _from_frame, _rnd3, _round, _to_frame
-from .entropy_ref import chord_frame, from_frame, rnd, rnd3, to_frame
+from ...shared.grid import QUANT as _GRID, chord_frame as _frame, from_frame as _from_frame, rnd as _round, rnd3 as _rnd3, to_frame as _to_frame  # noqa: E501
+from ...shared.grid_ref import chord_frame, from_frame, rnd, rnd3, to_frame
 
 # Edges tried first for a polyline's first segment (step 1).
 FIRST_GUESS = 4
@@ -92,9 +92,9 @@ MAX_SAMPLES = 32
 # in the least-squares fit and towards the current controls in the Gauss-Newton steps: it
 # makes spans with few inner points well posed and is negligible otherwise.
 RIDGE = 1e-6
-# The file's point grid (1/QUANT px; encoder/__init__.py and format/isoph.py), on which
-# _coarsen rounds the anchors and builds the handles' coarser grids.
-QUANT = 64.0
+# The file's point grid (1/QUANT px, shared/grid.py), on which _coarsen rounds the anchors
+# and builds the handles' coarser grids; a float, as the kernels compute in floats.
+QUANT = float(_GRID)
 
 
 # ---------------------------------------------------------------------------------------

@@ -16,42 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True, nogil=True)
-def _find(parent, i):
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]
-        i = parent[i]
-    return i
-
-
-@njit(cache=True, nogil=True)
-def _union(parent, a, b):
-    ra = _find(parent, a)
-    rb = _find(parent, b)
-    if ra != rb:
-        if ra < rb:
-            parent[rb] = ra
-        else:
-            parent[ra] = rb
-
-
-@njit(cache=True, nogil=True)
-def _label_in_place(parent):
-    """Turn a union-find array built by _union into labels, in place; returns their count.
-    A set's root is its smallest element (_union keeps the smaller root) and every parent
-    comes before its child, so in scan order an element that is its own parent starts a new
-    set (label m), and any other one's parent already holds its label. Labels are numbered
-    in scan order of each set's first element."""
-    m = 0
-    for i in range(parent.shape[0]):
-        p = parent[i]
-        if p == i:
-            parent[i] = m
-            m += 1
-        else:
-            parent[i] = parent[p]
-    return m
+from ...shared.unionfind import label_in_place, union
 
 
 @njit(cache=True, nogil=True)
@@ -77,9 +42,9 @@ def label_regions(vals, band, levels):
             i = r * wp + c
             b = band[r, c]
             if c + 1 < wp - 1 and band[r, c + 1] == b:
-                _union(parent, i, i + 1)
+                union(parent, i, i + 1)
             if r + 1 < hp - 1 and band[r + 1, c] == b:
-                _union(parent, i, i + wp)
+                union(parent, i, i + wp)
     for r in range(1, hp - 2):
         for c in range(1, wp - 2):
             b0 = band[r, c]
@@ -97,8 +62,8 @@ def label_regions(vals, band, levels):
                     continue
                 same_side = (bo1 > ba and bo2 > ba) or (bo1 < ba and bo2 < ba)
                 if not same_side or _diag_band(vals[r, c], vals[r, c + 1], vals[r + 1, c + 1], vals[r + 1, c], levels) == ba:
-                    _union(parent, ia, ic)
-    m = _label_in_place(parent)
+                    union(parent, ia, ic)
+    m = label_in_place(parent)
     return parent.reshape(hp, wp), m
 
 

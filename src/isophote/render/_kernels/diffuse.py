@@ -54,7 +54,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .regions import _label_in_place, _union
+from ...shared.unionfind import label_in_place, union
 from .resample import bilinear_at
 
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
@@ -256,8 +256,8 @@ def label_nodes(band):
                 ii = i + di
                 jj = j + dj
                 if 0 <= ii < nr and 0 <= jj < nc and band[ii, jj] == b:
-                    _union(parent, k, ii * nc + jj)
-    m = _label_in_place(parent)  # numbered in scan order of each region's first node
+                    union(parent, k, ii * nc + jj)
+    m = label_in_place(parent)  # numbered in scan order of each region's first node
     return parent.astype(np.int32).reshape(nr, nc), m
 
 
