@@ -39,7 +39,7 @@ def _psnr(a, b):
 
 def _segment_points(ch, samples=16):
     """Every segment of a channel sampled at samples + 1 parameters: (samples + 1, S, 2)."""
-    from isophote.render.flatten import segments
+    from isophote.geometry import segments
 
     segs, _ = segments(ch)
     t = np.linspace(0.0, 1.0, samples + 1)[:, None, None]

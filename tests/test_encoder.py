@@ -28,7 +28,7 @@ from isophote.encoder.mapping import map_pixels
 from isophote.format.isoph import dumps
 from isophote.options import EncodeOptions
 from isophote.render import render_float
-from isophote.render.flatten import flatten, segments
+from isophote.geometry import flatten, segments
 
 # ---------------------------------------------------------------------------------------
 # helpers

@@ -1,9 +1,9 @@
-"""Flattening of Bezier chains (render/flatten.py): the kernel against its NumPy twin, and the
+"""Flattening of Bezier chains (geometry/flatten.py): the kernel against its NumPy twin, and the
 chord error bound of Wang's formula measured independently."""
 
 import numpy as np
 
-from isophote.render.flatten import flatten, flatten_ref
+from isophote.geometry import flatten, flatten_ref
 
 
 def random_segments(rng, n):

@@ -56,7 +56,7 @@ def draw_contours(vi, channel: str = "Y", scale: float = DEFAULT_SCALE, crop=Non
     from .model import VectorImage
     from .options import RenderOptions
     from .render import render_float, viewport
-    from .render.flatten import flatten, segments
+    from .geometry import flatten, segments
 
     names = [c.name for c in vi.channels]
     if channel not in names:

@@ -636,7 +636,7 @@ def winding_map(x0, y0, x1, y1, width, height):
 
 
 def _edges(channel: Channel, tol: float = 0.05):
-    from ..render.flatten import flatten, segments
+    from ..geometry import flatten, segments
 
     segs, border = segments(channel)
     x0, y0, x1, y1, _ = flatten(segs, border, tol)

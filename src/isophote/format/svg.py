@@ -664,7 +664,7 @@ def _region_labels(ch: Channel, width: int, height: int) -> np.ndarray:
 
 def _flatten(ch: Channel, tol: float):
     """Line edges (x0, y0, x1, y1, contour) within ``tol`` px of the chains."""
-    from ..render.flatten import MAX_STEPS, segments
+    from ..geometry import MAX_STEPS, segments
 
     segs, _ = segments(ch)
     nseg = (np.diff(ch.offsets) - 1) // 3

@@ -27,7 +27,7 @@ from ..errors import LimitError
 from ..options import RenderOptions, make
 from .distance import NodeField, node_field
 from .fill import StripEdges, fill_strip
-from .flatten import flatten, segments
+from ..geometry import flatten, segments
 from .sharpen import gains
 
 STRIP_ROWS = 128  # output rows per strip: bounds memory at large sizes
