@@ -87,12 +87,17 @@ def main(argv=None) -> int:
     ap.add_argument("--check")
     ap.add_argument("--quick", action="store_true", help="synthetic images only")
     a = ap.parse_args(argv)
-    fp = fingerprints(a.quick)
-    if a.out:
-        with open(a.out, "w") as f:
+    return write_or_check(fingerprints(a.quick), a.out, a.check)
+
+
+def write_or_check(fp: dict, out: str | None, check: str | None) -> int:
+    """Write the fingerprints to ``out`` and/or compare them with the file ``check`` (exit
+    status 1 when some differ)."""
+    if out:
+        with open(out, "w") as f:
             json.dump(fp, f, indent=1, sort_keys=True)
-    if a.check:
-        with open(a.check) as f:
+    if check:
+        with open(check) as f:
             ref = json.load(f)
         bad = [k for k in fp if k in ref and ref[k] != fp[k]]
         missing = [k for k in fp if k not in ref]

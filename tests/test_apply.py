@@ -11,6 +11,7 @@ import isophote
 from isophote import cli
 from isophote.apply import equalise as E
 from isophote.errors import OptionError
+from isophote.geometry import chain_segments, evaluate
 from isophote.apply import warp as W
 from isophote.imageio import write_image
 from isophote.model import CAP_RAMP, DOME, Channel
@@ -345,7 +346,7 @@ def test_clipped_contours_stay_on_the_canvas_and_closed(vi):
             c = ch.chain(k)
             assert np.array_equal(c[0], c[-1]) and (len(c) - 1) % 3 == 0
         # every segment lying on the canvas border is flagged as border
-        segs, brd = W._segments(ch.points, ch.offsets)
+        segs, brd = chain_segments(ch.points, ch.offsets)
         on_edge = np.all((np.isclose(segs[:, :, 0], 0) | np.isclose(segs[:, :, 0], WD)), axis=1) | np.all(
             (np.isclose(segs[:, :, 1], 0) | np.isclose(segs[:, :, 1], H)), axis=1)
         assert np.all(ch.border[on_edge])
@@ -384,7 +385,7 @@ def test_nonlinear_warp_stays_within_tolerance():
     new, nb, src = W.move_segments(segs, border, sw, tol)
     t = np.linspace(0, 1, 200)
     for s in range(len(segs)):
-        exact = sw(W._bezier(np.repeat(segs[s][None], len(t), 0), t))
+        exact = sw(evaluate(np.repeat(segs[s][None], len(t), 0), t))
         pieces = new[src == s]
         assert np.all(nb[src == s] == border[s])
         # pieces are in order and joined
@@ -393,7 +394,7 @@ def test_nonlinear_warp_stays_within_tolerance():
         if border[s]:  # drawn as chords
             dense = np.concatenate([np.linspace(p[0], p[3], m) for p in pieces])
         else:
-            dense = np.concatenate([W._bezier(np.repeat(p[None], m, 0), np.linspace(0, 1, m)) for p in pieces])
+            dense = np.concatenate([evaluate(np.repeat(p[None], m, 0), np.linspace(0, 1, m)) for p in pieces])
         step = np.hypot(*np.diff(dense, axis=0).T).max()
         d = np.sqrt(((exact[:, None, :] - dense[None, :, :]) ** 2).sum(-1)).min(axis=1)
         assert d.max() <= tol + step / 2 + 1e-9, (s, d.max(), step)

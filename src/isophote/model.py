@@ -158,6 +158,13 @@ class Channel:
                 self.border[so[k] : so[k + 1]],
             )
 
+    def draw(self, pen) -> None:
+        """Draw every contour with a pen (isophote.geometry.pen: moveTo, curveTo for isoline
+        segments, lineTo for border segments, closePath; or the batched add_segments)."""
+        from .geometry.pen import draw
+
+        draw(self, pen)
+
     def with_points(self, points: np.ndarray) -> "Channel":
         """The same channel with moved control points (same layout)."""
         return replace(self, points=np.ascontiguousarray(points, dtype=np.float64))

@@ -56,7 +56,7 @@ def draw_contours(vi, channel: str = "Y", scale: float = DEFAULT_SCALE, crop=Non
     from .model import VectorImage
     from .options import RenderOptions
     from .render import render_float, viewport
-    from .geometry import flatten, segments
+    from .geometry import EdgesPen
 
     names = [c.name for c in vi.channels]
     if channel not in names:
@@ -77,14 +77,15 @@ def draw_contours(vi, channel: str = "Y", scale: float = DEFAULT_SCALE, crop=Non
         # source pixels -> output pixels (the render's sample lattice, see render.Viewport)
         return x * vp.kx - vp.col0 - vp.offx, y * vp.ky - vp.row0 - vp.offy
 
-    segs, border = segments(ch)
-    iso = ~border
+    pen = EdgesPen(0.02 / max(vp.kx, vp.ky))
+    ch.draw(pen)
+    segs, iso = pen.segments, ~pen.border
     # red: joint to joint, isoline segments only
     x0, y0 = to_output(segs[iso, 0, 0], segs[iso, 0, 1])
     x1, y1 = to_output(segs[iso, 3, 0], segs[iso, 3, 1])
     _blend(out, coverage(out.shape[:2], x0, y0, x1, y1), RED)
     # green and blue: the curves themselves
-    ex0, ey0, ex1, ey1, source = flatten(segs, border, 0.02 / max(vp.kx, vp.ky))
+    ex0, ey0, ex1, ey1, source = pen.edges()
     x0, y0 = to_output(ex0, ey0)
     x1, y1 = to_output(ex1, ey1)
     _blend(out, coverage(out.shape[:2], x0[source], y0[source], x1[source], y1[source]), GREEN)

@@ -103,6 +103,7 @@ import numpy as np
 
 from ..errors import OptionError
 from ..shared.grid import QUANT as VALUE_QUANT  # cap values are stored on the file's grid
+from ..geometry.areas import segment_moments  # ∮ x dy along every segment, exactly
 from ..model import DOME, Channel, VectorImage
 
 LEVEL_GAP = 1e-3  # grey levels: the smallest gap between reassigned levels
@@ -112,39 +113,6 @@ LEVEL_MIN, LEVEL_MAX = 1e-3, 255.0 - 1e-3  # levels stay inside (0, 255)
 # =============================================================================================
 # Exact areas (Green's theorem on cubic Beziers)
 # =============================================================================================
-
-
-def segment_moments(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """∮ x dy along every cubic segment of a channel's chains, exactly.
-
-    Parameters
-    ----------
-    points : (P, 2) float64, offsets : (C + 1,) int64
-        A channel's concatenated chains (model.py layout).
-
-    Returns
-    -------
-    (S,) float64
-        For segment P0, P1, P2, P3: the integral of x dy along it. Over a closed chain they
-        add up to the enclosed area counted positively for a chain that runs clockwise on
-        screen (y down), i.e. minus the area on the chain's left.
-    """
-    counts = (np.diff(offsets) - 1) // 3
-    if counts.sum() == 0:
-        return np.zeros(0)
-    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    first = np.repeat(offsets[:-1], counts) + 3 * within
-    p0, p1, p2, p3 = (points[first + i] for i in range(4))
-    x0 = p0[:, 0]
-    x1, y1 = (p1 - p0).T
-    x2, y2 = (p2 - p0).T
-    x3, y3 = (p3 - p0).T
-    # ∫ x dy = ∫ (x0 + X) dY = x0 Y3 + ∫ X dY with X, Y relative to P0, and
-    # ∫ X dY = X3 Y3 - ∫ Y dX = X3 Y3 / 2 - 3/20 (X1 (-Y2 - Y3) + X2 (Y1 - 2 Y3) + X3 (Y1 + 2 Y2))
-    # (the bracket is 20/3 of the area between the curve and its chord: AreaPen's term).
-    chord = 0.5 * x3 * y3
-    bulge = -0.15 * (x1 * (-y2 - y3) + x2 * (y1 - 2.0 * y3) + x3 * (y1 + 2.0 * y2))
-    return x0 * y3 + chord + bulge
 
 
 def contour_areas(channel: Channel) -> np.ndarray:

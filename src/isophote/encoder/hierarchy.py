@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.areas import polyline_areas
 from ..model import CAP_RAMP
 from ._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
@@ -38,13 +39,7 @@ class Hierarchy:
 
 def loop_areas(iso: Isolines) -> np.ndarray:
     """Signed shoelace area of every loop, vectorised."""
-    p = iso.points
-    nxt = np.arange(1, p.shape[0] + 1)
-    ends = iso.offsets[1:] - 1
-    nxt[ends] = iso.offsets[:-1]
-    cross = p[:, 0] * p[nxt, 1] - p[nxt, 0] * p[:, 1]
-    cs = np.concatenate([[0.0], np.cumsum(cross)])
-    return 0.5 * (cs[iso.offsets[1:]] - cs[iso.offsets[:-1]])
+    return polyline_areas(iso.points, iso.offsets)
 
 
 def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):

@@ -13,20 +13,6 @@ from numba import njit
 MAX_STEPS = 256
 
 
-def segments(channel):
-    """(S, 4, 2) control points of every segment of a channel, and their border flags."""
-    pts = channel.points
-    offs = channel.offsets
-    counts = (np.diff(offs) - 1) // 3
-    if counts.sum() == 0:
-        return np.zeros((0, 4, 2)), np.zeros(0, bool)
-    # segment s of contour k starts at point offs[k] + 3 * s
-    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    first = np.repeat(offs[:-1], counts) + 3 * within
-    idx = first[:, None] + np.arange(4)[None, :]
-    return pts[idx], channel.border.copy()
-
-
 def flatten(segs: np.ndarray, border: np.ndarray, tol: float):
     """Edges (x0, y0, x1, y1, is_source) approximating the segments within tol."""
     segs = np.ascontiguousarray(segs, np.float64).reshape(-1, 4, 2)

@@ -27,7 +27,7 @@ from ..errors import LimitError
 from ..options import RenderOptions, make
 from .distance import NodeField, node_field
 from .fill import StripEdges, fill_strip
-from ..geometry import flatten, segments
+from ..geometry import EdgesPen
 from .sharpen import gains
 
 STRIP_ROWS = 128  # output rows per strip: bounds memory at large sizes
@@ -193,12 +193,12 @@ def quantise(a: np.ndarray, depth: int) -> np.ndarray:
 
 
 def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
-    segs, border = segments(ch)
     # flatten finely enough for both the node grid and the target samples
     r = node_resolution(vi.width, vi.height, max(vp.kx, vp.ky) / vp.s, chroma=ch.name in ("U", "V"))
     check_nodes(vi, r, opts)
-    tol = 0.05 / max(r, vp.kx, vp.ky)
-    edges = flatten(segs, border, tol)
+    pen = EdgesPen(0.05 / max(r, vp.kx, vp.ky))
+    ch.draw(pen)
+    edges = pen.edges()
     gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
     return node_field(vi, ch, edges, r, opts.distance, smooth=opts.fill != "linear", sharpen=gain)
 
