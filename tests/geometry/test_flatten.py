@@ -54,3 +54,22 @@ def test_border_segments_are_single_chords_and_not_sources():
     assert src[0] == False and src[1:].all()  # noqa: E712
     assert (x0[0], y0[0], x1[0], y1[0]) == (0, 0, 0, 3)
     assert (x1[-1], y1[-1]) == (3, 3)
+
+
+def test_twin_names_each_edges_segment():
+    from isophote.geometry.flatten import contour_edges
+
+    from conftest import channel_of, circle, square
+
+    rng = np.random.default_rng(5)
+    segs = random_segments(rng, 40)
+    border = rng.random(40) < 0.3
+    x0, y0, x1, y1, src, seg = flatten_ref(segs, border, 0.05, with_segment=True)
+    assert np.array_equal(src, ~border[seg]) and np.all(np.diff(seg) >= 0)
+    first = np.r_[True, seg[1:] != seg[:-1]]
+    assert np.array_equal(np.column_stack([x0, y0])[first], segs[:, 0])
+    # contour_edges: every segment cut by Wang's formula, each edge tagged with its contour
+    ch = channel_of([circle(10.0, 10.0, 5.0)], [square(20.0, 2.0, 4.0)])
+    e = contour_edges(ch, 0.05)
+    assert np.all(np.diff(e[4]) >= 0) and set(e[4].tolist()) == {0, 1}
+    assert np.sum(e[4] == 1) == 4  # the square's sides are straight: one chord each

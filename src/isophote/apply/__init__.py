@@ -1,9 +1,10 @@
 """Operations on vector images (paper §5-6). Each is a pure function that returns a new
 VectorImage; the contours move or change value, no pixel is resampled.
 
-    warp.py       warp(vi, transform, canvas=..., background=...): affine (exact),
+    warp/         warp(vi, transform, canvas=..., background=...): affine (exact),
                   perspective and any smooth point map (subdivided within a tolerance);
                   rotation(), perspective_from_points(), Swirl, PointMap; scale()
+                  (transforms, canvas, channel steps, clipping, caps, band maps)
     equalise.py   equalise(vi): histogram equalisation by level reassignment, with exact
                   level areas from the Bezier chains (Green's theorem); histogram_stats()
 

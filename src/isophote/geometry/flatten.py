@@ -68,11 +68,12 @@ def _flatten_kernel(segs, border, tol, max_steps):
     return x0, y0, x1, y1, src
 
 
-def flatten_ref(segs: np.ndarray, border: np.ndarray, tol: float):
-    """NumPy twin of :func:`flatten` (the same edges, vectorised)."""
+def flatten_ref(segs: np.ndarray, border: np.ndarray, tol: float, with_segment: bool = False):
+    """NumPy twin of :func:`flatten` (the same edges, vectorised); with ``with_segment``, also
+    the (E,) index of every edge's segment."""
     if len(segs) == 0:
         z = np.zeros(0)
-        return z, z, z, z, np.zeros(0, bool)
+        return (z, z, z, z, np.zeros(0, bool)) + ((np.zeros(0, np.int64),) if with_segment else ())
     p0, p1, p2, p3 = segs[:, 0], segs[:, 1], segs[:, 2], segs[:, 3]
     dd = np.maximum(np.hypot(*(p0 - 2 * p1 + p2).T), np.hypot(*(p1 - 2 * p2 + p3).T))
     n = np.clip(np.ceil(np.sqrt(0.75 * dd / tol)), 1, MAX_STEPS).astype(np.int64)
@@ -98,4 +99,14 @@ def flatten_ref(segs: np.ndarray, border: np.ndarray, tol: float):
     a[k == 0] = p0[seg[k == 0]]
     last = k == n[seg] - 1
     b[last] = p3[seg[last]]
-    return a[:, 0], a[:, 1], b[:, 0], b[:, 1], ~border[seg]
+    return (a[:, 0], a[:, 1], b[:, 0], b[:, 1], ~border[seg]) + ((seg,) if with_segment else ())
+
+
+def contour_edges(channel, tol: float):
+    """Line edges (x0, y0, x1, y1, contour) within ``tol`` of a channel's chains, every
+    segment (border ones too) cut by Wang's formula: the SVG reader's band map."""
+    from .chains import chain_segments
+
+    segs, owner = chain_segments(channel.points, channel.offsets)
+    x0, y0, x1, y1, _, seg = flatten_ref(segs, np.zeros(len(segs), bool), tol, with_segment=True)
+    return x0, y0, x1, y1, owner[seg]
