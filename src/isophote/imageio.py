@@ -425,26 +425,29 @@ def check_format(path, depth: int = 8, channels: int = 3) -> str:
 def write_image(path, pixels: np.ndarray, depth: int = 8, quality: int = 95) -> None:
     """Write (H, W) or (H, W, C) float samples on 0..255 (C in 1..4) atomically.
 
+    Samples already quantised are written as they are: uint8 with depth 8, uint16 (on
+    0..65535) with depth 16, as :func:`isophote.render.render` returns them.
     depth 16 is kept by PNG and TIFF; other formats are 8-bit and refuse depth 16 with an
     OptionError, as JPEG and BMP refuse an alpha channel.
     """
-    a = np.asarray(pixels, dtype=np.float64)
+    exact = np.asarray(pixels).dtype == (np.uint16 if depth == 16 else np.uint8)
+    a = np.asarray(pixels) if exact else np.asarray(pixels, dtype=np.float64)
     if a.ndim == 2:
         a = a[..., None]
     if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError(f"pixels must be (H, W) or (H, W, 1..4) with H, W >= 1, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if not exact and not np.all(np.isfinite(a)):
         raise ValueError("pixels contain NaN or infinite values")
     c = a.shape[2]
     fmt = check_format(path, depth, c)
     if depth == 16:
-        q = np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
+        q = a if exact else np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
         data = _png16(q) if fmt == "PNG" else _tiff16(q)
         _atomic_write(path, lambda f: f.write(data))
         return
     from PIL import Image
 
-    q = np.clip(np.rint(a), 0, 255).astype(np.uint8)
+    q = a if exact else np.clip(np.rint(a), 0, 255).astype(np.uint8)
     im = Image.fromarray(q[..., 0] if c == 1 else q)
     kwargs = {}
     if fmt in ("JPEG", "WEBP"):
