@@ -29,6 +29,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import os
+import re
 import sys
 from dataclasses import dataclass
 
@@ -150,12 +151,48 @@ def _add_command(sub, row: Command, common) -> None:
 def main(argv=None) -> int:
     """Run the command line; return the exit status (the console script exits with it)."""
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
-    parser = build_parser(_named(argv))
+    named = _named(argv)
+    parser = build_parser(named)
+    command = _subparser(parser, named)
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(_negative_values(argv, command))
+        if extra:  # reported by the command's parser, which points to its own --help
+            (command or parser).error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as e:  # --help, --version and usage errors
         return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
     return run_command(args._run, args)
+
+
+def _subparser(parser, name):
+    """The parser of the command ``name``, or None."""
+    for action in parser._subparsers._group_actions if parser._subparsers else ():
+        if name in getattr(action, "choices", {}):
+            return action.choices[name]
+    return None
+
+
+_NUMBER = re.compile(r"^-\.?[0-9]")
+
+
+def _negative_values(argv, command) -> list:
+    """``--crop -10,-10,100,100`` as ``--crop=-10,-10,100,100``: argparse takes a value that
+    starts with '-' and is not a plain number for an option. Only options that take a value
+    are joined, and only to a word that starts with a minus and a digit."""
+    if command is None:
+        return argv
+    takes_value = {s for a in command._actions if a.option_strings and a.nargs is None for s in a.option_strings}
+    out, i = [], 0
+    while i < len(argv):
+        word = argv[i]
+        if word == "--":
+            return out + argv[i:]
+        if word in takes_value and i + 1 < len(argv) and _NUMBER.match(argv[i + 1]):
+            out.append(f"{word}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(word)
+        i += 1
+    return out
 
 
 def __getattr__(name):

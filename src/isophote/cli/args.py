@@ -94,3 +94,13 @@ def add_option_flags(parser, cls, table, names=None) -> None:
 def options(args, cls, table):
     """The dataclass built from the flags that were given (defaults stay in the dataclass)."""
     return cls(**{name: getattr(args, name) for name in table if hasattr(args, name)})
+
+
+def defaults_of(module: str, function: str) -> dict:
+    """The keyword defaults of ``module.function`` (a relative name is isophote's), for the
+    flags of a library function that has no options dataclass."""
+    import importlib
+    import inspect
+
+    fn = getattr(importlib.import_module(module, __package__), function)
+    return {k: v.default for k, v in inspect.signature(fn).parameters.items() if v.default is not v.empty}

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from .args import finite_floats, numbers, positive_float
-from .scaffold import Job, check_output, load
+from .args import defaults_of, finite_floats, numbers, positive_float
+from .scaffold import Job, check_output, load, output_arguments
 
 
 def _perspective(text: str):
@@ -45,8 +45,8 @@ def _canvas(text: str):
 
 
 def _io_arguments(p) -> None:
-    p.add_argument("input", metavar="IN.isoph", help="input .isoph file")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.isoph", help="output .isoph file")
+    p.add_argument("input", metavar="IN.isoph", help="the .isoph file to edit (it is not changed)")
+    output_arguments(p, "OUT.isoph", "the .isoph file to write")
 
 
 # =============================================================================================
@@ -59,8 +59,8 @@ def add_warp_arguments(p) -> None:
                      "Affine maps move control points exactly; perspective and swirl subdivide the chains "
                      "until they are within --tolerance of the exact curves. Coordinates are source pixels: "
                      "x right, y down, origin at the top-left corner. Regions the warped picture does not "
-                     "cover get --background. A value that starts with a minus sign needs '=' "
-                     "(--affine=-1,0,640,0,1,0).")
+                     "cover get --background. Values that start with a minus work as written "
+                     "(--affine -1,0,640,0,1,0), as with '=' (--affine=-1,0,640,0,1,0).")
     _io_arguments(p)
     how = p.add_mutually_exclusive_group(required=True)
     how.add_argument("--rotate", type=float, metavar="DEG",
@@ -74,13 +74,16 @@ def add_warp_arguments(p) -> None:
                      "corners of the image go")
     how.add_argument("--swirl", type=_swirl, metavar="STRENGTH,RADIUS[,CX,CY]",
                      help="scikit-image's swirl (same parameters and picture), about the centre or (CX, CY)")
-    p.add_argument("--canvas", type=_canvas, default="same", metavar="same|fit|WxH",
-                   help="output canvas: the input's size (default), the bounding box of the warped image, "
-                   "or W x H pixels")
-    p.add_argument("--background", type=numbers((1, 3)), default=(0.0, 0.0, 0.0), metavar="R,G,B",
-                   help="colour (0..255) of the regions the warped image does not cover (default: black)")
-    p.add_argument("--tolerance", type=positive_float, default=None, metavar="PX",
-                   help="largest error of a warped curve in output pixels, non-affine maps (default: 0.02)")
+    default = defaults_of("..apply.warp", "warp")  # the library's, not written again here
+    p.add_argument("--canvas", type=_canvas, default=default["canvas"], metavar="same|fit|WxH",
+                   help="output canvas: 'same' (the input's size), 'fit' (the bounding box of the warped "
+                   f"image) or W x H pixels (default: {default['canvas']})")
+    p.add_argument("--background", type=numbers((1, 3)), default=tuple(default["background"]), metavar="R,G,B",
+                   help="colour (0..255) of the regions the warped image does not cover (default: "
+                   f"{','.join(f'{v:g}' for v in default['background'])})")
+    p.add_argument("--tolerance", type=positive_float, default=default["tolerance"], metavar="PX",
+                   help="largest error of a warped curve in output pixels, non-affine maps "
+                   f"(default: {default['tolerance']:g})")
 
 
 def _transform(args, vi):
@@ -107,14 +110,13 @@ def run_warp(args) -> int:
     from ..apply import warp as W
     from ..format.isoph import save
 
-    check_output(args.output, args.input)
+    check_output(args.output, args.input, extensions=(".isoph",), force=args.force, what="warp")
     job = Job(args)
     vi = load(args.input)
     transform, what = _transform(args, vi)
     bg = args.background if len(args.background) == 3 else args.background * 3
     job.progress(f"warping ({what})...")
-    kw = {} if args.tolerance is None else {"tolerance": args.tolerance}
-    out = W.warp(vi, transform, canvas=args.canvas, background=bg, **kw)
+    out = W.warp(vi, transform, canvas=args.canvas, background=bg, tolerance=args.tolerance)
     save(out, args.output)
     segs = sum(ch.n_segments for ch in out.channels)
     job.done(f"{args.output}: {out.width}x{out.height}, {what}, {segs:,} segments")
@@ -144,7 +146,7 @@ def run_equalize(args) -> int:
     from ..apply.equalise import equalise
     from ..format.isoph import save
 
-    check_output(args.output, args.input)
+    check_output(args.output, args.input, extensions=(".isoph",), force=args.force, what="equalize")
     job = Job(args)
     vi = load(args.input)
     job.progress("equalising (exact level areas)..." if args.fast

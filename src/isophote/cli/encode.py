@@ -8,7 +8,7 @@ from dataclasses import replace
 
 from ..options import PRESETS, EncodeOptions
 from .args import add_option_flags, check_table, float_list, options
-from .scaffold import Job, check_output, load, say, warn
+from .scaffold import Job, check_output, input_path, load, output_arguments, say, shown, warn, write_output
 
 
 def _noise(text: str):
@@ -21,50 +21,68 @@ def _noise(text: str):
         raise argparse.ArgumentTypeError(f"expected a number of grey levels or 'auto', got {text!r}") from None
 
 
-# field name -> argparse keywords (no defaults here: they come from the dataclass)
+# field name -> argparse keywords (no defaults here: they come from the dataclass). The help
+# says what a user gets first, the paper's term after it, in parentheses.
 ENCODE_FLAGS = {
     "preset": dict(choices=tuple(PRESETS),
-                   help="paper: the paper's fixed levels and global error; high: visually "
-                        "indistinguishable; balanced: fewer bytes than paper, more faithful; "
-                        "compact: fewest bytes at high quality"),
-    "y_step": dict(type=float, metavar="N", help="Y level spacing in grey levels (default: from the preset)"),
-    "uv_step": dict(type=float, metavar="N", help="U and V level spacing (default: from the preset)"),
-    "alpha_step": dict(type=float, metavar="N", help="alpha level spacing (default: from the preset)"),
+                   help="how faithful and how large the file is: balanced (a master, fewer bytes than paper "
+                        "and more faithful), high (indistinguishable from the original, largest), compact "
+                        "(smallest file at high quality), paper (the paper's fixed levels and one error)"),
+    "y_step": dict(type=float, metavar="N",
+                   help="brightness detail: grey levels between two brightness contours; smaller is more "
+                        "faithful and larger (the Y level spacing; default: from the preset)"),
+    "uv_step": dict(type=float, metavar="N",
+                    help="colour detail: the same for the two colour channels (U and V level spacing; "
+                         "default: from the preset)"),
+    "alpha_step": dict(type=float, metavar="N",
+                       help="transparency detail (alpha level spacing; default: from the preset)"),
     "level_range": dict(type=float_list, metavar="LOW,HIGH",
-                        help="the range the stepped levels fill: the paper's 7.5,247.5, or up to the "
-                             "whole scale 0.5,254.5 (default: from the preset)"),
-    "levels_y": dict(type=float_list, metavar="A,B,...", help="explicit Y levels on 0..255 (override --y-step)"),
-    "levels_u": dict(type=float_list, metavar="A,B,...", help="explicit U levels"),
-    "levels_v": dict(type=float_list, metavar="A,B,...", help="explicit V levels"),
+                        help="the grey levels that get contours: the paper's 7.5,247.5 leaves the darkest and "
+                             "brightest tones flat; 0.5,254.5 traces the whole scale (default: from the preset)"),
+    "levels_y": dict(type=float_list, metavar="A,B,...",
+                     help="trace exactly these brightness levels, on 0..255 (instead of --y-step)"),
+    "levels_u": dict(type=float_list, metavar="A,B,...", help="trace exactly these U colour levels"),
+    "levels_v": dict(type=float_list, metavar="A,B,...", help="trace exactly these V colour levels"),
     "noise": dict(type=_noise, metavar="E|auto",
-                  help="sample error epsilon in grey levels, the same for every pixel (default: the "
-                       "input's quantisation error, 0.5 for 8-bit, raised per pixel by the local noise "
-                       "estimate of the compact and high presets); 'auto': estimate it per pixel; with "
-                       "--local-noise, the floor of the estimate"),
+                  help="noise to ignore, in grey levels, the same everywhere: larger gives smoother "
+                       "contours and a smaller file; 'auto' measures it around each pixel (the paper's "
+                       "sample error epsilon; default: the input's rounding error, 0.5 for 8-bit, raised "
+                       "where the picture is noisy by the presets that measure it); with --local-noise, "
+                       "the least noise assumed"),
     "local_noise": dict(type=float, metavar="K",
-                        help="per-pixel epsilon of at least K x the local noise deviation; 0 = one global "
-                             "epsilon (default: from the preset)"),
+                        help="ignore noise up to K times what is measured around each pixel; 0 = one "
+                             "value for the whole picture (local noise epsilon; default: from the preset)"),
     "noise_floor": dict(type=float_list, metavar="Y[,U,V]",
-                        help="lower bound on the local noise deviation, grey levels (default: a JPEG "
-                             "input's quantisation error, else none)"),
+                        help="the least noise assumed anywhere, in grey levels (default: a JPEG input's "
+                             "compression error, else none)"),
     "prune_area_y": dict(type=float, metavar="PX",
-                         help="in Y (and alpha), flatten level crossings of fewer pixels than this whose "
-                              "contrast is within the noise (--prune-contrast); 0 = none (default: from "
-                              "the preset)"),
+                         help="remove brightness specks: blobs of fewer pixels than this that stand out "
+                              "less than the noise (--prune-contrast) are flattened; 0 = keep every one "
+                              "(pruning of Y and alpha level crossings; default: from the preset)"),
     "prune_area_uv": dict(type=float, metavar="PX",
-                          help="the same in U and V (default: from the preset)"),
+                          help="the same for colour specks (U and V; default: from the preset)"),
     "prune_contrast": dict(type=float, metavar="K",
-                           help="a crossing is within the noise when its extreme lies less than K x "
-                                "epsilon beyond the level (default: from the preset)"),
-    "snap": dict(type=float, metavar="DEG", help="G1 snapping threshold in degrees"),
-    "min_tolerance": dict(type=float, metavar="PX", help="smallest error-ribbon half-width in source pixels"),
+                           help="a speck is noise when it stands out less than K times the noise "
+                                "(K x epsilon beyond its level; default: from the preset)"),
+    "snap": dict(type=float, metavar="DEG",
+                 help="smooth corners: a joint bent less than DEG degrees from straight is made smooth "
+                      "where the curve stays within its tolerance (G1 snapping)"),
+    "min_tolerance": dict(type=float, metavar="PX",
+                          help="how closely the curves follow the pixels at least, in source pixels "
+                               "(the error ribbon's smallest half-width)"),
     "max_tolerance": dict(type=float, metavar="PX",
-                          help="largest error-ribbon half-width in source pixels (default: from the preset)"),
-    "carrato_p": dict(type=float, metavar="P", help="p of the Carrato 2x upsampling (paper 3.2)"),
-    "carrato_scale": dict(type=float, metavar="G", help="intensity unit of the Carrato differences, in grey levels"),
+                          help="how far the curves may stray at most, in source pixels: larger gives fewer "
+                               "curves and a smaller file (the error ribbon's largest half-width; default: "
+                               "from the preset)"),
+    "carrato_p": dict(type=float, metavar="P",
+                      help="edge sharpness of the 2x upsampling the contours are traced on "
+                           "(Carrato's p, paper §3.2)"),
+    "carrato_scale": dict(type=float, metavar="G",
+                          help="the contrast, in grey levels, at which that edge sharpening acts "
+                               "(unit of the Carrato differences)"),
     "carrato_cubic": dict(type=float, metavar="W",
-                          help="weight of the cubic term under the Carrato midpoints: 2 = Keys' a = -1 "
-                               "cubic (default), 1 = Catmull-Rom, 0 = the paper's linear base"),
+                          help="sharpness of the upsampling between edges: 2 = sharp (Keys' a = -1 cubic), "
+                               "1 = Catmull-Rom, 0 = linear (the paper's base)"),
 }
 ENCODE_ADVANCED = ("level_range", "local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
                    "min_tolerance", "max_tolerance", "carrato_p", "carrato_scale", "carrato_cubic")
@@ -72,29 +90,33 @@ check_table(EncodeOptions, ENCODE_FLAGS)
 
 
 def add_arguments(p) -> None:
-    p.description = "Encode a raster image into contours and write an .isoph file."
-    p.add_argument("input", metavar="IN", help="input image")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.isoph", help="output file")
+    p.description = ("Turn a photograph into contours and write them as an .isoph file, which renders "
+                     "back at any size. IN and OUT may be '-' for standard input and output (pipes).")
+    p.add_argument("input", metavar="IN", help="the photograph (PNG, JPEG, TIFF, WebP, BMP, GIF, PPM, TGA, QOI), "
+                   "or an SVG written by 'isophote svg'; '-' reads standard input")
+    output_arguments(p, "OUT.isoph", "the .isoph file to write", stdio=True)
     add_option_flags(p, EncodeOptions, ENCODE_FLAGS, [n for n in ENCODE_FLAGS if n not in ENCODE_ADVANCED])
     add_option_flags(p.add_argument_group("advanced encoder options"), EncodeOptions, ENCODE_FLAGS, ENCODE_ADVANCED)
 
 
 def run(args) -> int:
     from ..encoder import encode_pixels
-    from ..format.isoph import save
+    from ..format.isoph import dumps
     from ..imageio import read_image
 
     opts = options(args, EncodeOptions, ENCODE_FLAGS).resolved()  # bad options fail before reading
-    check_output(args.output, args.input)
-    if _is_svg_file(args.input):
-        # an SVG written by isophote (edited or not) already holds the contours: re-import it
-        vi = load(args.input)
-        save(vi, args.output)
-        say(args, f"{args.output}: contours read back from {args.input} ({_counts(vi)})")
-        return 0
-    job = Job(args)
-    job.progress(f"reading {args.input}")
-    raster = read_image(args.input)
+    check_output(args.output, args.input, extensions=(".isoph",), force=args.force, what="encode")
+    with input_path(args.input) as path:
+        if _is_svg_file(path):
+            # an SVG written by isophote (edited or not) already holds the contours: re-import it
+            vi = load(path)
+            write_output(args.output, dumps(vi))
+            say(args, f"{shown(args.output)}: contours read back from {shown(args.input, output=False)} ({_counts(vi)})")
+            return 0
+        job = Job(args)
+        job.progress(f"reading {shown(args.input, output=False)}")
+        raster = read_image(path)
+        in_bytes = os.path.getsize(path)
     if raster.note:
         warn(args, f"{args.input}: {raster.note}")
     h, w, c = raster.pixels.shape
@@ -104,12 +126,12 @@ def run(args) -> int:
     if raster.noise_floor is not None and opts.noise_floor is None:
         opts = replace(opts, noise_floor=raster.noise_floor)  # a JPEG's quantisation error
     vi = encode_pixels(raster.pixels, raster.depth, opts)
-    job.progress(f"writing {args.output}")
-    save(vi, args.output)
+    job.progress(f"writing {shown(args.output)}")
+    data = dumps(vi)
+    write_output(args.output, data)
     seconds = job.seconds
-    out_bytes, in_bytes = os.path.getsize(args.output), os.path.getsize(args.input)
-    ratio = out_bytes / in_bytes if in_bytes else float("inf")
-    job.done(f"{args.output}: {w}x{h}, contours/segments {_counts(vi)}; {out_bytes:,} bytes, "
+    ratio = len(data) / in_bytes if in_bytes else float("inf")
+    job.done(f"{shown(args.output)}: {w}x{h}, contours/segments {_counts(vi)}; {len(data):,} bytes, "
              f"{ratio:.2f} x the input's {in_bytes:,}; {seconds:.1f} s", timed=False)
     return 0
 

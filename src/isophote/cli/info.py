@@ -7,7 +7,7 @@ import json
 
 def add_arguments(p) -> None:
     p.description = "Describe an .isoph file from its header, without decoding it."
-    p.add_argument("input", metavar="FILE.isoph")
+    p.add_argument("input", metavar="FILE.isoph", help="the .isoph file to describe (only its header is read)")
     p.add_argument("--json", action="store_true", help="print a JSON object")
 
 

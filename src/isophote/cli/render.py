@@ -4,29 +4,109 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
-from dataclasses import fields
+from dataclasses import fields, replace
 
 from ..errors import IsophoteError, OptionError
 from ..options import DEPTHS, DISTANCES, FILLS, RenderOptions
-from .args import add_option_flags, check_table, crop, options, positive_float
-from .scaffold import PROG, Job, check_output, load, raster_extensions, same_file, say
+from .args import add_option_flags, check_table, crop, defaults_of, options, positive_float
+from .scaffold import (PROG, STDIO, Job, check_output, input_path, load, output_arguments, raster_extensions,
+                       same_file, shown, write_output)
 
 RENDER_FLAGS = {
-    "scale": dict(type=positive_float, metavar="S", help="output size = source (or crop) size x S (default: 1)"),
-    "width": dict(type=int, metavar="W", help="output width; alone it keeps the aspect ratio"),
-    "height": dict(type=int, metavar="H", help="output height; alone it keeps the aspect ratio"),
-    "crop": dict(type=crop, metavar="X,Y,W,H", help="render only this rectangle, in source pixels"),
-    "fill": dict(choices=FILLS, help="fill between contours"),
-    "distance": dict(choices=DISTANCES, help="distance used by the diffusion fill"),
-    "supersample": dict(type=int, metavar="N", help="N x N samples per output pixel, box-filtered: for flat fill "
-                        "(diffusion is smooth already, and blurs)"),
-    "sharpen": dict(type=float, metavar="K", help="sharpening of enlargements (0 = off; no effect at or below 1x)"),
-    "depth": dict(type=int, choices=DEPTHS, help="bits per channel of the output (16: PNG or TIFF)"),
-    "max_pixels": dict(type=int, metavar="N", help="refuse outputs larger than this many pixels"),
+    "scale": dict(type=positive_float, metavar="S",
+                  help="enlarge (or shrink) by S: output size = source (or crop) size x S (default: 1)"),
+    "width": dict(type=int, metavar="W",
+                  help="output width in pixels; alone it keeps the picture's shape; with --height the picture "
+                       "fits inside W x H, keeping its shape (--stretch fills the box exactly)"),
+    "height": dict(type=int, metavar="H", help="output height in pixels; see --width"),
+    "crop": dict(type=crop, metavar="X,Y,W,H",
+                 help="render only this rectangle, in source pixels from the top-left corner; it must lie "
+                      "inside the picture (one that reaches outside is refused with the reason, never "
+                      "clipped); negative numbers work as written (--crop -10,0,50,50 or --crop=-10,0,50,50)"),
+    "fill": dict(choices=FILLS,
+                 help="how the colour between contours is filled: diffusion (smooth, the paper's double "
+                      "diffusion), linear (the paper's straight-line blend), flat (posterised, the baseline)"),
+    "distance": dict(choices=DISTANCES, help="the distance the smooth fills blend by"),
+    "supersample": dict(type=int, metavar="N",
+                        help="antialiasing: N x N samples per output pixel, averaged; for --fill flat "
+                             "(diffusion is smooth already, and blurs)"),
+    "sharpen": dict(type=float, metavar="K",
+                    help="sharpening of enlargements, 0 (off) to 1; no effect at or below 1x"),
+    "depth": dict(type=int, choices=DEPTHS, help="bits per channel of the output (16: PNG or TIFF only)"),
+    "max_pixels": dict(type=int, metavar="N", help="refuse outputs larger than this many pixels (memory safety)"),
 }
 check_table(RenderOptions, RENDER_FLAGS)
 KINDS = {1: "grey", 2: "grey+alpha", 3: "RGB", 4: "RGBA"}
+
+
+# =============================================================================================
+# Raster outputs: the format, its quality, standard output
+# =============================================================================================
+
+
+def add_raster_output(p, what: str) -> None:
+    from ..options import WriteOptions
+
+    output_arguments(p, "OUT.png", f"{what}; the format follows the extension (.png .tif .jpg .webp .bmp) "
+                     "or --format", stdio=True)
+    p.add_argument("--format", choices=sorted(e[1:] for e in raster_extensions()),
+                   help="the output's format when its name does not say it (standard output: png)")
+    p.add_argument("--quality", type=int, metavar="Q",
+                   help=f"JPEG and WebP quality, 1 (smallest file) to 100 (best) (default: {WriteOptions.quality})")
+
+
+def raster_format(args) -> str:
+    """The output's format, as its extension ('.png'); the name, --format and --quality
+    checked before any work."""
+    from ..imageio import FORMATS, LOSSY_FORMATS
+    from ..options import WriteOptions
+
+    named = os.path.splitext(args.output)[1].lower() if args.output != STDIO else None
+    asked = "." + args.format if args.format else None
+    ext = asked or named or ".png"
+    if named is not None and named not in FORMATS and asked is None:
+        check_output(args.output, extensions=raster_extensions())  # refuses: unknown format
+    if asked and named and FORMATS.get(named) != FORMATS[asked] and not args.force:
+        raise OptionError(f"{args.output}: --format {args.format} writes {FORMATS[asked]}, and this name says "
+                          f"{named}; rename it, or give --force to keep the name")
+    if args.quality is not None:
+        WriteOptions(quality=args.quality).validate()
+        if FORMATS[ext] not in LOSSY_FORMATS:
+            raise OptionError(f"--quality is for JPEG and WebP outputs; {args.output} is {FORMATS[ext]}, "
+                              "which is lossless")
+    return ext
+
+
+def write_raster(args, ext: str, pixels, depth: int = 8) -> None:
+    from ..imageio import FORMATS, image_bytes
+    from ..options import WriteOptions
+
+    quality = WriteOptions().quality if args.quality is None else args.quality
+    write_output(args.output, image_bytes(pixels, FORMATS[ext], depth=depth, quality=quality))
+
+
+def check_crop(crop, vi) -> None:
+    """A crop reaching outside the picture is refused (never clipped: the output's size and
+    its place in the picture stay what was asked)."""
+    if crop is None:
+        return
+    x, y, w, h = crop
+    if x < 0 or y < 0 or x + w > vi.width + 1e-9 or y + h > vi.height + 1e-9:
+        raise OptionError(f"--crop {x:g},{y:g},{w:g},{h:g} reaches outside the {vi.width}x{vi.height} picture "
+                          f"(it needs X >= 0, Y >= 0, X + W <= {vi.width}, Y + H <= {vi.height})")
+
+
+def fit_box(opts, vi, stretch: bool):
+    """--width with --height: the largest size of the picture's (or crop's) shape inside
+    W x H, unless --stretch."""
+    if opts.width is None or opts.height is None or stretch:
+        return opts
+    cw, ch = (opts.crop[2], opts.crop[3]) if opts.crop is not None else (vi.width, vi.height)
+    if opts.width / cw <= opts.height / ch:
+        return replace(opts, height=None)  # the width limits: the height follows
+    return replace(opts, width=None)
 
 
 # =============================================================================================
@@ -35,24 +115,28 @@ KINDS = {1: "grey", 2: "grey+alpha", 3: "RGB", 4: "RGBA"}
 
 
 def add_render_arguments(p) -> None:
-    p.description = "Render an .isoph file to PNG, TIFF, JPEG or WebP."
-    p.add_argument("input", metavar="IN.isoph", help="input .isoph file")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.png",
-                   help="output image; the format follows the extension (.png .tif .jpg .webp .bmp)")
+    p.description = ("Render an .isoph file to PNG, TIFF, JPEG, WebP or BMP at any size. IN and OUT may be "
+                     "'-' for standard input and output (pipes).")
+    p.add_argument("input", metavar="IN.isoph", help="the .isoph file (or an SVG written by 'isophote svg'); "
+                   "'-' reads standard input")
+    add_raster_output(p, "the image to write")
     add_option_flags(p, RenderOptions, RENDER_FLAGS)
+    p.add_argument("--stretch", action="store_true",
+                   help="with --width and --height: fill W x H exactly, changing the picture's shape")
     p.add_argument("--compare", metavar="ORIGINAL",
                    help="print PSNR, SSIM, SSIMULACRA2 and FLIP of the render against ORIGINAL")
     p.add_argument("--diff", metavar="DIFF.png", help="with --compare: write |original - render| x 4 here")
 
 
 def run_render(args) -> int:
-    from ..imageio import check_format, write_image
+    from ..imageio import check_format
     from ..render import render, viewport
 
     opts = options(args, RenderOptions, RENDER_FLAGS)
     opts.validate()
-    check_output(args.output, args.input, args.compare, extensions=raster_extensions())
-    check_format(args.output, opts.depth)
+    ext = raster_format(args)
+    check_output(args.output, args.input, args.compare)
+    check_format("out" + ext, opts.depth)
     if args.diff is not None:
         if args.compare is None:
             raise OptionError("--diff needs --compare ORIGINAL")
@@ -61,19 +145,22 @@ def run_render(args) -> int:
         check_output(args.diff, args.input, args.compare, extensions=raster_extensions())
 
     job = Job(args)
-    job.progress(f"reading {args.input}")
-    vi = load(args.input)
-    check_format(args.output, opts.depth, len(vi.channels))  # Y[A] or YUV[A]: 1 to 4 samples
-    vp = viewport(vi, opts)  # size and crop checked before any work
+    job.progress(f"reading {shown(args.input, output=False)}")
+    with input_path(args.input) as path:
+        vi = load(path)
+    check_format("out" + ext, opts.depth, len(vi.channels))  # Y[A] or YUV[A]: 1 to 4 samples
+    check_crop(opts.crop, vi)
+    opts = fit_box(opts, vi, args.stretch)
+    vp = viewport(vi, opts)  # size checked before any work
     reference = None
     if args.compare is not None:
         reference = _reference_for(args.compare, opts, (vp.out_h, vp.out_w))
     job.progress(f"rendering {vp.out_w}x{vp.out_h} ({opts.fill})...")
     q = render(vi, **{f.name: getattr(opts, f.name) for f in fields(opts)})  # uint8 / uint16, as written
-    job.progress(f"writing {args.output}")
-    write_image(args.output, q, depth=opts.depth)
+    job.progress(f"writing {shown(args.output)}")
+    write_raster(args, ext, q, depth=opts.depth)
     how = opts.fill if opts.fill == "flat" else f"{opts.fill}/{opts.distance}"
-    job.done(f"{args.output}: {vp.out_w}x{vp.out_h} {KINDS[1 if q.ndim == 2 else q.shape[2]]} "
+    job.done(f"{shown(args.output)}: {vp.out_w}x{vp.out_h} {KINDS[1 if q.ndim == 2 else q.shape[2]]} "
              f"{opts.depth}-bit, {how}")
     if reference is not None:
         samples = q / 257.0 if opts.depth == 16 else q.astype(float)  # what the file holds, on 0..255
@@ -133,7 +220,8 @@ def _report_scores(args, ref, test, as_json: bool) -> None:
     job.progress("measuring...")
     scores, missing = _measure(ref, test)
     job.done()
-    _print_scores(scores, missing, as_json=as_json)
+    _print_scores(scores, missing, as_json=as_json, out=sys.stderr if getattr(args, "output", None) == STDIO
+                  else sys.stdout)
     if args.diff is not None:
         from ..imageio import write_image
         from ..metrics import difference_image
@@ -178,15 +266,16 @@ def _measure(ref, test):
 UNITS = {"psnr": " dB"}
 
 
-def _print_scores(scores, missing, as_json: bool) -> None:
+def _print_scores(scores, missing, as_json: bool, out=sys.stdout) -> None:
     if as_json:
-        out = {k: (None if math.isinf(v) else v) for k, v in scores.items()}
+        obj = {k: (None if math.isinf(v) else v) for k, v in scores.items()}
         if missing:
-            out["missing"] = missing
-        print(json.dumps(out, allow_nan=False))
+            obj["missing"] = missing
+        print(json.dumps(obj, allow_nan=False), file=out)
     else:
         for name, v in scores.items():
-            print(f"{name:<12} {v:.4f}{UNITS.get(name, '')}" if not math.isinf(v) else f"{name:<12} inf (identical)")
+            print(f"{name:<12} {v:.4f}{UNITS.get(name, '')}" if not math.isinf(v) else f"{name:<12} inf (identical)",
+                  file=out)
     for name, why in missing.items():
         sys.stderr.write(f"{PROG}: {name} not measured: {why}\n")
 
@@ -197,28 +286,31 @@ def _print_scores(scores, missing, as_json: bool) -> None:
 
 
 def add_contours_arguments(p) -> None:
-    from ..overlay import DEFAULT_SCALE
+    default = defaults_of("..overlay", "draw_contours")  # the library's, not written again here
 
     p.description = ("Draw one channel's contours over a grey render of that channel: red the polyline "
                      "through the on-curve joints, green the fitted Bezier chains, blue the stretches "
                      "along the image border.")
-    p.add_argument("input", metavar="FILE.isoph")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output image")
-    p.add_argument("--channel", default="Y", help="channel to draw: Y, U, V or A (default: Y)")
-    p.add_argument("--scale", type=positive_float, default=DEFAULT_SCALE, metavar="S",
-                   help=f"output pixels per source pixel (default: {DEFAULT_SCALE:g})")
-    p.add_argument("--crop", type=crop, metavar="X,Y,W,H", help="draw only this rectangle, in source pixels")
+    p.add_argument("input", metavar="FILE.isoph", help="the .isoph file whose contours to draw")
+    add_raster_output(p, "the figure to write")
+    p.add_argument("--channel", default=default["channel"],
+                   help=f"channel to draw: Y (brightness), U, V (colour) or A (alpha) (default: {default['channel']})")
+    p.add_argument("--scale", type=positive_float, default=default["scale"], metavar="S",
+                   help=f"output pixels per source pixel (default: {default['scale']:g})")
+    p.add_argument("--crop", type=crop, metavar="X,Y,W,H",
+                   help="draw only this rectangle, in source pixels; it must lie inside the picture (as render's)")
 
 
 def run_contours(args) -> int:
-    from ..imageio import write_image
     from ..overlay import draw_contours
 
-    check_output(args.output, args.input, extensions=raster_extensions())
+    ext = raster_format(args)
+    check_output(args.output, args.input)
     job = Job(args)
     vi = load(args.input)
+    check_crop(args.crop, vi)
     job.progress(f"drawing the {args.channel} contours...")
     figure = draw_contours(vi, channel=args.channel, scale=args.scale, crop=args.crop)
-    write_image(args.output, figure)
-    job.done(f"{args.output}: {figure.shape[1]}x{figure.shape[0]}, channel {args.channel}")
+    write_raster(args, ext, figure)
+    job.done(f"{shown(args.output)}: {figure.shape[1]}x{figure.shape[0]}, channel {args.channel}")
     return 0

@@ -9,13 +9,16 @@ the reader of stdout went away (``isophote info --json x | head``); 130 on Ctrl-
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
+import tempfile
 import time
 
 from ..errors import IsophoteError, OptionError
 
 PROG = "isophote"
+STDIO = "-"  # as an input: standard input; as an output: standard output
 
 
 class Parser(argparse.ArgumentParser):
@@ -24,6 +27,14 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(2, f"{self.prog}: {message} (see '{self.prog} --help')\n")
+
+
+def output_arguments(p, metavar: str, what: str, stdio: bool = False) -> None:
+    """-o/--output and --force, the same for every command that writes a file."""
+    p.add_argument("-o", "--output", required=True, metavar=metavar,
+                   help=f"{what}" + ("; '-' writes to standard output (a pipe)" if stdio else ""))
+    p.add_argument("--force", action="store_true",
+                   help="write the output even if its name says another format than the one written")
 
 
 def common_flags() -> argparse.ArgumentParser:
@@ -121,9 +132,17 @@ class Job:
             say(self.args, f"{summary}; {self.seconds:.1f} s" if timed else summary)
 
 
+def shown(path, output: bool = True) -> str:
+    """A path as messages name it: '-' is standard output (or, not ``output``, input)."""
+    if path != STDIO:
+        return str(path)
+    return "<stdout>" if output else "<stdin>"
+
+
 def say(args, message: str) -> None:
+    """A result line on stdout, or on stderr when stdout carries the output (``-o -``)."""
     if not args.quiet:
-        print(message)
+        print(message, file=sys.stderr if getattr(args, "output", None) == STDIO else sys.stdout)
 
 
 def warn(args, message: str) -> None:
@@ -145,21 +164,68 @@ def same_file(a, b) -> bool:
     return os.path.realpath(a) == os.path.realpath(b)
 
 
-def check_output(path, *inputs, extensions=None) -> None:
-    """Refuse an output that would overwrite an input, or that cannot be written, before work."""
+def check_output(path, *inputs, extensions=None, force=False, what="") -> None:
+    """Refuse, before any work, an output that would overwrite an input, whose name says
+    another format than ``extensions`` (unless ``force``), or that cannot be written.
+    Standard output (``-``) is always writable."""
+    if path == STDIO:
+        return
     for src in inputs:
-        if src is not None and same_file(path, src):
+        if src is not None and src != STDIO and same_file(path, src):
             raise OptionError(f"{path}: output is the same file as the input {src}; choose another name")
     if os.path.isdir(path):
         raise OptionError(f"{path}: is a directory")
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise OptionError(f"{path}: folder {folder} does not exist")
-    if extensions is not None:
-        ext = os.path.splitext(path)[1].lower()
-        if ext not in extensions:
-            raise OptionError(f"{path}: unknown output format {ext or '(no extension)'!r} "
-                              f"(use {', '.join(sorted(extensions))})")
+    ext = os.path.splitext(path)[1].lower()
+    if extensions is not None and ext not in extensions and not force:
+        use = ", ".join(sorted(extensions))
+        if what:
+            raise OptionError(f"{path}: {what} writes {use} files, and this name says "
+                              f"{ext or 'no extension'}; rename it, or give --force to keep the name")
+        raise OptionError(f"{path}: unknown output format {ext or '(no extension)'!r} (use {use})")
+    check_writable(path)
+
+
+def check_writable(path) -> None:
+    """Create and remove a file beside ``path``: a folder that refuses files (``/proc``, a
+    read-only mount) is reported now, under the user's name, not after the work."""
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".isophote-", suffix=".tmp", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise OptionError(f"{path}: cannot write in {folder} ({e.strerror or e})") from None
+
+
+def write_output(path, data: bytes) -> None:
+    """``data`` to ``path`` atomically, or to standard output for ``-``."""
+    if path == STDIO:
+        sys.stdout.buffer.write(data)
+        sys.stdout.buffer.flush()
+        return
+    from ..imageio import atomic_write_bytes
+
+    atomic_write_bytes(path, data)
+
+
+@contextlib.contextmanager
+def input_path(path):
+    """A path to read ``path`` from: itself, or for ``-`` a temporary copy of standard input
+    (errors then say ``<stdin>``, never the copy's name)."""
+    if path != STDIO:
+        yield path
+        return
+    with tempfile.TemporaryDirectory(prefix="isophote-") as folder:
+        copy = os.path.join(folder, "stdin")
+        with open(copy, "wb") as f:
+            f.write(sys.stdin.buffer.read())
+        try:
+            yield copy
+        except IsophoteError as e:
+            raise type(e)(str(e).replace(copy, "<stdin>")) from None
 
 
 def raster_extensions():
