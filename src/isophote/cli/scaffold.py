@@ -12,7 +12,6 @@ import argparse
 import contextlib
 import os
 import sys
-import tempfile
 import time
 
 from ..errors import IsophoteError, OptionError
@@ -191,6 +190,8 @@ def check_output(path, *inputs, extensions=None, force=False, what="") -> None:
 def check_writable(path) -> None:
     """Create and remove a file beside ``path``: a folder that refuses files (``/proc``, a
     read-only mount) is reported now, under the user's name, not after the work."""
+    import tempfile  # here, not at the top: `isophote --help` imports this module
+
     folder = os.path.dirname(os.path.abspath(path))
     try:
         fd, probe = tempfile.mkstemp(prefix=".isophote-", suffix=".tmp", dir=folder)
@@ -218,6 +219,8 @@ def input_path(path):
     if path != STDIO:
         yield path
         return
+    import tempfile
+
     with tempfile.TemporaryDirectory(prefix="isophote-") as folder:
         copy = os.path.join(folder, "stdin")
         with open(copy, "wb") as f:
