@@ -85,6 +85,14 @@ def test_bad_stdin_is_named_stdin(tmp_path, monkeypatch, capsys):
     assert "<stdin>" in err and "isophote-" not in err
 
 
+def test_binary_is_not_written_to_a_terminal(files, tmp_path, monkeypatch, capsys):
+    _, isoph = files
+    pipes = _Pipes(monkeypatch)
+    monkeypatch.setattr(pipes.stdout, "isatty", lambda: True)
+    err = _refused(capsys, tmp_path, "render", isoph, "-o", "-")
+    assert "terminal" in err and pipes.written() == b""
+
+
 # ------------------------------------------------------------------------ --quality
 
 

@@ -166,8 +166,11 @@ def same_file(a, b) -> bool:
 def check_output(path, *inputs, extensions=None, force=False, what="") -> None:
     """Refuse, before any work, an output that would overwrite an input, whose name says
     another format than ``extensions`` (unless ``force``), or that cannot be written.
-    Standard output (``-``) is always writable."""
+    Standard output (``-``) is refused only when it is a terminal (binary would garble it)."""
     if path == STDIO:
+        if sys.stdout.isatty():
+            raise OptionError("-o -: standard output is a terminal; redirect it (> file, | program) "
+                              "or name an output file")
         return
     for src in inputs:
         if src is not None and src != STDIO and same_file(path, src):
