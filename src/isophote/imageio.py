@@ -42,6 +42,7 @@ import numpy as np
 
 from .errors import InputError, IsophoteError, LimitError, OptionError
 from .limits import MAX_PIXELS
+from .options import WriteOptions
 
 MAX_INPUT_PIXELS = MAX_PIXELS  # decompression-bomb guard (limits.py)
 
@@ -401,6 +402,8 @@ FORMATS = {
 }
 DEPTH16_FORMATS = ("PNG", "TIFF")
 ALPHA_FORMATS = ("PNG", "TIFF", "WEBP")
+LOSSY_FORMATS = ("JPEG", "WEBP")  # the formats --quality applies to
+_EXT = {fmt: ext[1:] for ext, fmt in reversed(list(FORMATS.items()))}  # format -> its first extension
 
 
 def check_format(path, depth: int = 8, channels: int = 3) -> str:
@@ -422,36 +425,51 @@ def check_format(path, depth: int = 8, channels: int = 3) -> str:
     return fmt
 
 
-def write_image(path, pixels: np.ndarray, depth: int = 8, quality: int = 95) -> None:
+def write_image(path, pixels: np.ndarray, depth: int = 8, quality: int = WriteOptions.quality,
+                fmt: str | None = None) -> None:
     """Write (H, W) or (H, W, C) float samples on 0..255 (C in 1..4) atomically.
 
+    Samples already quantised are written as they are: uint8 with depth 8, uint16 (on
+    0..65535) with depth 16, as :func:`isophote.render.render` returns them.
     depth 16 is kept by PNG and TIFF; other formats are 8-bit and refuse depth 16 with an
-    OptionError, as JPEG and BMP refuse an alpha channel.
+    OptionError, as JPEG and BMP refuse an alpha channel. ``quality`` (1..100) is JPEG's and
+    WebP's; ``fmt`` (a Pillow format name of FORMATS) overrides the one the extension names.
     """
-    a = np.asarray(pixels, dtype=np.float64)
+    data = image_bytes(pixels, fmt or path, depth=depth, quality=quality)
+    _atomic_write(path, lambda f: f.write(data))
+
+
+def image_bytes(pixels: np.ndarray, fmt, depth: int = 8, quality: int = WriteOptions.quality) -> bytes:
+    """The bytes :func:`write_image` writes; ``fmt`` is a format name of FORMATS ("PNG") or a
+    path whose extension names one (standard output has no name: ``isophote render -o -``)."""
+    exact = np.asarray(pixels).dtype == (np.uint16 if depth == 16 else np.uint8)
+    a = np.asarray(pixels) if exact else np.asarray(pixels, dtype=np.float64)
     if a.ndim == 2:
         a = a[..., None]
     if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError(f"pixels must be (H, W) or (H, W, 1..4) with H, W >= 1, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if not exact and not np.all(np.isfinite(a)):
         raise ValueError("pixels contain NaN or infinite values")
     c = a.shape[2]
-    fmt = check_format(path, depth, c)
+    fmt = check_format("x." + _EXT[fmt] if fmt in _EXT else fmt, depth, c)
+    WriteOptions(quality=quality).validate()
     if depth == 16:
-        q = np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
-        data = _png16(q) if fmt == "PNG" else _tiff16(q)
-        _atomic_write(path, lambda f: f.write(data))
-        return
+        q = a if exact else np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
+        return _png16(q) if fmt == "PNG" else _tiff16(q)
+    import io
+
     from PIL import Image
 
-    q = np.clip(np.rint(a), 0, 255).astype(np.uint8)
+    q = a if exact else np.clip(np.rint(a), 0, 255).astype(np.uint8)
     im = Image.fromarray(q[..., 0] if c == 1 else q)
     kwargs = {}
     if fmt in ("JPEG", "WEBP"):
-        kwargs["quality"] = quality
+        kwargs["quality"] = int(quality)
     if fmt == "PNG":
         kwargs["compress_level"] = 6
-    _atomic_write(path, lambda f: im.save(f, format=fmt, **kwargs))
+    buf = io.BytesIO()
+    im.save(buf, format=fmt, **kwargs)
+    return buf.getvalue()
 
 
 def _png16(a: np.ndarray) -> bytes:
@@ -547,7 +565,10 @@ def _atomic_write(path, write) -> None:
     if not os.path.isdir(folder):
         raise InputError(f"{path}: folder {folder} does not exist")
     mode = _new_file_mode(path)
-    fd, tmp = tempfile.mkstemp(prefix=".isophote-", suffix=".tmp", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".isophote-", suffix=".tmp", dir=folder)
+    except OSError as e:  # named for the user's path, not the temporary file's
+        raise OSError(e.errno, e.strerror, path) from None
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)
@@ -555,11 +576,13 @@ def _atomic_write(path, write) -> None:
             os.fsync(f.fileno())
         os.chmod(tmp, mode)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(e, OSError) and not isinstance(e, BrokenPipeError) and e.filename != path:
+            raise OSError(e.errno, e.strerror, path) from None  # e.g. a full disk: the user's name
         raise
 
 

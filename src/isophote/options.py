@@ -271,6 +271,22 @@ class RenderOptions:
                 raise OptionError("crop width and height must be positive")
 
 
+@dataclass(frozen=True)
+class WriteOptions:
+    """How a raster is written.
+
+    quality : JPEG and WebP quality, 1..100 on Pillow's scale (95, the value isophote has
+        always written: near the top of the scale, where a master's renders belong). PNG,
+        TIFF and BMP are lossless and take none.
+    """
+
+    quality: int = 95
+
+    def validate(self) -> None:
+        if not (isinstance(self.quality, int) and 1 <= self.quality <= 100):
+            raise OptionError(f"quality must be an integer between 1 and 100, got {self.quality}")
+
+
 def option_names(cls) -> list[str]:
     return [f.name for f in fields(cls)]
 
