@@ -34,7 +34,9 @@ from dataclasses import MISSING, fields, replace
 
 from . import __version__
 from .errors import IsophoteError, OptionError
+from .icc import colour_line, profile_of
 from .options import DEPTHS, DISTANCES, FILLS, PRESETS, EncodeOptions, RenderOptions
+from .provenance import made_lines, made_meta
 
 PROG = "isophote"
 
@@ -514,7 +516,8 @@ def cmd_encode(args) -> int:
     from .format.isoph import save
     from .imageio import read_image
 
-    opts = _options(args, EncodeOptions, ENCODE_FLAGS).resolved()  # bad options fail before reading
+    given = _options(args, EncodeOptions, ENCODE_FLAGS)
+    opts = given.resolved()  # bad options fail before reading
     _check_output(args.output, args.input)
     if _is_svg_file(args.input):
         # an SVG written by isophote (edited or not) already holds the contours: re-import it
@@ -535,7 +538,9 @@ def cmd_encode(args) -> int:
     progress(f"encoding {w}x{h}, channels {' '.join(names)}...")
     if raster.noise_floor is not None and opts.noise_floor is None:
         opts = replace(opts, noise_floor=raster.noise_floor)  # a JPEG's quantisation error
+        given = replace(given, noise_floor=raster.noise_floor)
     vi = encode_pixels(raster.pixels, raster.depth, opts)
+    vi = replace(vi, meta=made_meta(given, args.input, raster))
     progress(f"writing {args.output}")
     save(vi, args.output)
     seconds = time.perf_counter() - t0
@@ -613,7 +618,7 @@ def cmd_render(args) -> int:
     progress(f"writing {args.output}")
     from .imageio import write_image
 
-    write_image(args.output, samples, depth=opts.depth)
+    write_image(args.output, samples, depth=opts.depth, icc_profile=profile_of(vi.meta))
     seconds = time.perf_counter() - t0
     progress.done()
     kind = {1: "grey", 2: "grey+alpha", 3: "RGB", 4: "RGBA"}[samples.shape[2]]
@@ -751,6 +756,9 @@ def cmd_info(args) -> int:
               f"{c['segments']:9d} segments {c.get('caps', 0):7d} caps{extra}")
     if segments:
         print(f"  {segments:,} segments, {info['bytes'] / segments:.2f} bytes per segment")
+    print(f"  colour: {colour_line(info['meta'])}")
+    for line in made_lines(info["meta"]):
+        print(f"  {line}")
     return 0
 
 
