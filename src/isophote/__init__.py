@@ -19,6 +19,19 @@ from .options import EncodeOptions, RenderOptions
 __version__ = "0.1.0"
 
 
+def _register_with_pillow() -> None:
+    """``Image.open("x.isoph")`` works after ``import isophote`` (pillow_plugin.py); cheap:
+    Pillow's core only, no numba."""
+    try:
+        from .pillow_plugin import register
+    except ImportError:  # Pillow is a dependency, but a broken install should not stop us
+        return
+    register()
+
+
+_register_with_pillow()
+
+
 def encode(image, **options) -> VectorImage:
     """Encode an (H, W), (H, W, 1..4) array of samples on 0..255 into a VectorImage."""
     from .encoder import encode as _encode
