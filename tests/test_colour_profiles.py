@@ -160,3 +160,22 @@ def test_info_json_carries_the_meta(adobe, tmp_path, capsys):
     assert cli.main(["info", "--json", str(tmp_path / "p.isoph")]) == 0
     meta = json.loads(capsys.readouterr().out)["meta"]
     assert meta["colour_profile"] == icc.describe(adobe)
+
+
+def test_an_srgb_profile_is_named_not_stored(tmp_path, capsys):
+    """sRGB-equivalent profiles (judged by converting 4913 colours) are not worth 3-7 KB in
+    every master: info names them, renders are untagged sRGB."""
+    srgb = ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+    assert icc.is_srgb(srgb)
+    src = tmp_path / "s.png"
+    Image.fromarray(np.rint(saturated_srgb(16, 16)).astype(np.uint8)).save(src, icc_profile=srgb)
+    assert cli.main(["encode", str(src), "-o", str(tmp_path / "s.isoph"), "--quiet"]) == 0
+    meta = isophote.load(tmp_path / "s.isoph").meta
+    assert "icc_profile" not in meta and meta["colour_profile"] == icc.describe(srgb)
+    capsys.readouterr()
+    assert cli.main(["info", str(tmp_path / "s.isoph")]) == 0
+    assert "is sRGB: not stored" in capsys.readouterr().out
+
+
+def test_adobe_rgb_is_not_srgb(adobe):
+    assert not icc.is_srgb(adobe)

@@ -5,7 +5,9 @@ isophote KEEPS a source's embedded profile rather than converting to sRGB at enc
 - the contours are traced on the source's own coded values (Adobe RGB, Display P3, ProPhoto
   ...), so a wide-gamut photograph keeps its gamut, and a 16-bit one its precision (no
   8-bit sRGB round trip, no clipping of out-of-sRGB colours);
-- the profile is stored in the master's ``meta`` (``"icc_profile"``: the profile's bytes in
+- a profile equivalent to sRGB (:func:`is_srgb`: most cameras' and editors' "sRGB
+  IEC61966-2.1") is only named, not stored: untagged renders are sRGB already;
+- any other profile is stored in the master's ``meta`` (``"icc_profile"``: the profile's bytes in
   base64; ``"colour_profile"``: its description), so old readers read such files unchanged
   and ``isophote info`` can name it without Pillow;
 - every render is written with the profile attached (PNG iCCP, TIFF tag 34675, JPEG APP2,
@@ -75,8 +77,23 @@ def fits(data: bytes, channels: int) -> bool:
 
 
 def is_srgb(data: bytes) -> bool:
-    """A profile that only says "sRGB" (its description starts with sRGB)."""
-    return describe(data).lower().startswith("srgb")
+    """Does the profile code colours as sRGB does? Every 17th level of R, G and B (4913
+    colours) converted through it to sRGB must come back within one level: a camera's or an
+    editor's "sRGB IEC61966-2.1" does, Adobe RGB or Display P3 do not."""
+    from PIL import Image
+
+    p = open_profile(data)
+    if p is None or colour_space(data) != "RGB":
+        return False
+    v = np.arange(0, 256, 17, dtype=np.uint8)
+    grid = np.stack(np.meshgrid(v, v, v, indexing="ij"), -1).reshape(1, -1, 3)
+    ImageCms = _cms()
+    try:
+        out = ImageCms.profileToProfile(Image.fromarray(grid, "RGB"), p, ImageCms.createProfile("sRGB"),
+                                        outputMode="RGB")
+    except ImageCms.PyCMSError:
+        return False
+    return int(np.abs(np.asarray(out, np.int16) - grid).max()) <= 1
 
 
 def to_srgb(pixels: np.ndarray, data: bytes) -> np.ndarray:
@@ -125,9 +142,12 @@ def displayed_srgb(path) -> np.ndarray:
 
 
 def meta_for(data: bytes | None) -> dict:
-    """The meta entries that keep profile ``data`` in a master ({} for None)."""
+    """The meta entries that keep profile ``data`` in a master ({} for None). A profile
+    equivalent to sRGB (is_srgb) is named but not stored: an untagged render is sRGB."""
     if not data:
         return {}
+    if is_srgb(data):
+        return {META_DESCRIPTION: describe(data)}
     return {META_PROFILE: base64.b64encode(data).decode("ascii"), META_DESCRIPTION: describe(data)}
 
 
@@ -148,4 +168,6 @@ def colour_line(meta: dict) -> str:
     if isinstance(meta.get(META_PROFILE), str):
         name = meta.get(META_DESCRIPTION) or "unnamed profile"
         return f"{name}, embedded ICC profile kept (renders carry it)"
+    if isinstance(meta.get(META_DESCRIPTION), str):
+        return f"sRGB (the source's profile {meta[META_DESCRIPTION]!r} is sRGB: not stored, renders are untagged sRGB)"
     return "sRGB (no embedded profile)"
