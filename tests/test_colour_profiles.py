@@ -179,3 +179,24 @@ def test_an_srgb_profile_is_named_not_stored(tmp_path, capsys):
 
 def test_adobe_rgb_is_not_srgb(adobe):
     assert not icc.is_srgb(adobe)
+
+
+def test_info_says_how_the_file_was_made(tmp_path, capsys):
+    """The CLI records the source's name (not its folder), size, depth and bytes, and the
+    options given; the API records version, preset and options; info prints both."""
+    src = tmp_path / "photo.png"
+    Image.fromarray(np.rint(saturated_srgb(16, 20)).astype(np.uint8)).save(src)
+    out = tmp_path / "m.isoph"
+    assert cli.main(["encode", str(src), "-o", str(out), "--quiet", "--preset", "compact", "--y-step", "8"]) == 0
+    meta = isophote.load(out).meta
+    assert meta["source"] == {"name": "photo.png", "width": 20, "height": 16, "depth": 8,
+                              "bytes": os.path.getsize(src)}
+    assert meta["encoder"] == {"isophote": isophote.__version__, "preset": "compact", "options": {"y_step": 8.0}}
+    capsys.readouterr()
+    assert cli.main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "source: photo.png (20x16, 8-bit" in text
+    assert f"made by: isophote {isophote.__version__}, preset compact, options y_step=8" in text
+    api = isophote.encode(saturated_srgb(8, 8), snap=30, levels_y=(50.0, 100.0))
+    assert api.meta == {"encoder": {"isophote": isophote.__version__, "preset": "balanced",
+                                    "options": {"snap": 30.0, "levels_y": "2 levels"}}}

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -32,14 +33,25 @@ def dist(tmp_path_factory):
     if importlib.util.find_spec("build") is None:
         pytest.skip("the 'build' package is not installed (pip install build)")
     out = tmp_path_factory.mktemp("dist")
-    run = subprocess.run([sys.executable, "-m", "build", "--outdir", str(out), str(ROOT)],
-                         capture_output=True, text=True, timeout=600)
+    # built from a copy: setuptools writes build/ and src/isophote.egg-info into the tree it
+    # builds, and an egg-info on the test's PYTHONPATH would pass for an installed isophote
+    tree = tmp_path_factory.mktemp("tree") / "isophote"
+    shutil.copytree(ROOT, tree, ignore=shutil.ignore_patterns(
+        ".git", ".venv", "out", "build", "dist", "*.egg-info", "__pycache__", "*.nbi", "*.nbc", ".pytest_cache",
+        ".hypothesis"))
+    run = subprocess.run([sys.executable, "-m", "build", "--outdir", str(out), str(tree)],
+                         capture_output=True, text=True, timeout=600, env=_clean_env())
     if run.returncode != 0 and ("No matching distribution" in run.stderr or "Could not find a version" in run.stderr):
         pytest.skip("build isolation cannot install setuptools here (no index reachable)")
     assert run.returncode == 0, run.stderr[-3000:]
     wheels, sdists = list(out.glob("*.whl")), list(out.glob("*.tar.gz"))
     assert len(wheels) == 1 and len(sdists) == 1, list(out.iterdir())
     return wheels[0], sdists[0]
+
+
+def _clean_env() -> dict:
+    """The environment without this checkout's PYTHONPATH, numba cache or venv."""
+    return {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "NUMBA_CACHE_DIR", "VIRTUAL_ENV")}
 
 
 def _package_files():
@@ -102,13 +114,13 @@ def test_the_wheel_works_in_a_clean_venv(dist, tmp_path):
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
     py = venv / "bin" / "python"
     pip = subprocess.run([str(py), "-m", "pip", "install", "-q", str(wheel)], capture_output=True, text=True,
-                         timeout=900)
+                         timeout=900, env=_clean_env())
     if pip.returncode != 0 and "No matching distribution" in pip.stderr:
         pytest.skip("the dependencies cannot be installed here (no index or cache): " + pip.stderr[-300:])
     assert pip.returncode == 0, pip.stderr[-3000:]
     work = tmp_path / "work"  # no source tree in sight
     work.mkdir()
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "NUMBA_CACHE_DIR", "VIRTUAL_ENV")}
-    out = subprocess.run([str(py), "-c", SMOKE], cwd=work, capture_output=True, text=True, env=env, timeout=900)
+    out = subprocess.run([str(py), "-c", SMOKE], cwd=work, capture_output=True, text=True, env=_clean_env(),
+                         timeout=900)
     assert out.returncode == 0 and "SMOKE OK" in out.stdout, out.stdout[-2000:] + out.stderr[-3000:]
     assert "colour: sRGB" in out.stdout and "made by: isophote" in out.stdout

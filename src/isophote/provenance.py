@@ -86,6 +86,6 @@ def made_lines(meta: dict) -> list[str]:
 def _show(v) -> str:
     if isinstance(v, list):
         return ",".join(_show(x) for x in v)
-    if isinstance(v, float) and v.is_integer():
-        return str(int(v))
+    if isinstance(v, float):
+        return f"{v:.4g}"
     return str(v)
