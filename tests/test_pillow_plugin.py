@@ -56,10 +56,15 @@ def renders(monkeypatch):
     return seen
 
 
-def test_import_isophote_registers_the_format_without_numba():
-    code = ("import sys, isophote; from PIL import Image; "
-            "assert 'ISOPH' in Image.OPEN and Image.EXTENSION['.isoph'] == 'ISOPH', 'not registered'; "
-            "assert 'numba' not in sys.modules, 'numba imported'; print('ok')")
+@pytest.mark.parametrize("code", [
+    # isophote first: Pillow is not imported by it, and the format is there once Pillow is
+    "import sys, isophote; assert 'PIL' not in sys.modules, 'Pillow imported'; from PIL import Image",
+    # Pillow first
+    "import sys; from PIL import Image; import isophote",
+])
+def test_import_isophote_registers_the_format_without_numba(code):
+    code += ("; assert 'ISOPH' in Image.OPEN and Image.EXTENSION['.isoph'] == 'ISOPH', 'not registered'"
+             "; assert 'numba' not in sys.modules, 'numba imported'; print('ok')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
 

@@ -23,17 +23,11 @@ from .options import EncodeOptions, RenderOptions  # noqa: E402
 __version__ = "0.1.0"
 
 
-def _register_with_pillow() -> None:
-    """``Image.open("x.isoph")`` works after ``import isophote`` (pillow_plugin.py); cheap:
-    Pillow's core only, no numba."""
-    try:
-        from .pillow_plugin import register
-    except ImportError:  # Pillow is a dependency, but a broken install should not stop us
-        return
-    register()
+# ``Image.open("x.isoph")`` works after ``import isophote`` (pillow_plugin.py), registered
+# when PIL.Image is imported (pillow_hook.py): isophote's import itself stays free of Pillow.
+from . import pillow_hook  # noqa: E402
 
-
-_register_with_pillow()
+pillow_hook.install()
 
 
 def encode(image, **options) -> VectorImage:

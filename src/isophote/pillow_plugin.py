@@ -8,8 +8,9 @@
     >>> im.thumbnail((256, 256))              # draft(): renders small, then resizes
     >>> import imageio.v3 as iio; iio.imread("photo.isoph")   # through Pillow
 
-- Registration (:func:`register`) costs Pillow's import and nothing else: the format module,
-  the renderer and its numba kernels are imported when a file is opened or rendered.
+- Registration (:func:`register`) happens when ``PIL.Image`` is imported (pillow_hook.py),
+  so ``import isophote`` imports no Pillow; the format module, the renderer and its numba
+  kernels are imported when a file is opened or rendered.
 - ``Image.open`` reads the header alone (format/isoph.py ``read_info``: the payload is not
   decompressed) and reports the native size and the mode: "L", "LA", "RGB" or "RGBA".
   Pillow's images are 8-bit a channel, so renders through Pillow are 8-bit (16-bit renders:
