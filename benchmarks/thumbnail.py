@@ -54,7 +54,7 @@ def best(fn, rounds: int) -> float:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--images", default=f"astronaut,{WIDE}")
-    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--sizes", default="256,128", help="thumbnail boxes (comma-separated)")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--out", default=corpus.RESULTS)
     args = ap.parse_args()
@@ -63,19 +63,20 @@ def main() -> int:
 
     from isophote import pillow_plugin
 
-    box = (args.size, args.size)
+    sizes = [int(v) for v in args.sizes.split(",")]
     report = corpus.Report()
     report("# Thumbnails through Pillow")
     report()
-    report(f"`Image.open(master).thumbnail({box})` (draft: one render at most 2x the thumbnail) against "
+    report(f"`Image.open(master).thumbnail((N, N))` for N in {sizes} (draft: one render at most 2x the thumbnail) against "
            f"`isophote.load(master).render()` at 1x then the same thumbnail; best of {args.rounds} after a "
            "warm-up, on a shared 2-core machine (compare the ratio, not the seconds).")
     report()
     report("| image | native | drafted render | thumbnail | via draft s | render 1x + shrink s | ratio | mean abs diff |")
     report("|---|---|---|---|---|---|---|---|")
     stages = []
-    for name in args.images.split(","):
+    for name, size in [(n, z) for n in args.images.split(",") for z in sizes]:
         label, path = master_for(name)
+        box = (size, size)
 
         def drafted():
             with Image.open(path) as im:

@@ -32,7 +32,6 @@ META_PROFILE = "icc_profile"  # meta key: base64 of the profile's bytes
 META_DESCRIPTION = "colour_profile"  # meta key: the profile's description
 # meta is at most 64 KiB of JSON (format/isoph.py MAX_META_BYTES); base64 adds a third.
 MAX_PROFILE_BYTES = 40_000
-_SPACES = {"RGB": "RGB ", "GREY": "GRAY"}
 
 
 def _cms():
