@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 OUT    ?= out/demo
 
-.PHONY: demo test bench clean
+.PHONY: demo test test-slow bench clean
 
 $(VENV)/.installed: pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "isophote needs Python 3.11+"'
@@ -18,6 +18,9 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed
 	@$(PY) -m pytest
+
+test-slow: $(VENV)/.installed  # also the minutes-long checks: the wheel in a fresh venv
+	@ISOPHOTE_SLOW_TESTS=1 $(PY) -m pytest tests/test_packaging.py
 
 bench: $(VENV)/.installed
 	@$(PY) -m pip install -q -e '.[bench]'

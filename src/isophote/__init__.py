@@ -12,11 +12,22 @@ Y, U, V) and is rendered back at any size with double-diffusion fill between con
     >>> flat = isophote.equalise(vi)          # rectangular luminance histogram (§5)
 """
 
-from .errors import FormatError, InputError, IsophoteError, LimitError, OptionError
-from .model import Channel, VectorImage
-from .options import EncodeOptions, RenderOptions
+from . import numba_cache
+
+numba_cache.configure()  # before any kernel imports numba: read-only installs cache per user
+
+from .errors import FormatError, InputError, IsophoteError, LimitError, OptionError  # noqa: E402
+from .model import Channel, VectorImage  # noqa: E402
+from .options import EncodeOptions, RenderOptions  # noqa: E402
 
 __version__ = "0.1.0"
+
+
+# ``Image.open("x.isoph")`` works after ``import isophote`` (pillow_plugin.py), registered
+# when PIL.Image is imported (pillow_hook.py): isophote's import itself stays free of Pillow.
+from . import pillow_hook  # noqa: E402
+
+pillow_hook.install()
 
 
 def encode(image, **options) -> VectorImage:

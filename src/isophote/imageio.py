@@ -79,6 +79,10 @@ class Raster:
     # JPEG inputs: the deviation of the DCT quantisation error per Y (, U, V) channel, in
     # grey levels (dct_quantisation_error); the encoder's noise_floor option. None otherwise.
     noise_floor: tuple | None = None
+    # The embedded ICC profile the samples are coded in (icc.py), or None: sRGB. CMYK sources
+    # come converted to sRGB, and a profile that cannot describe the samples is dropped
+    # (``note`` says so).
+    icc_profile: bytes | None = None
 
 
 # =============================================================================================
@@ -98,7 +102,7 @@ def read_image(path) -> Raster:
     """
     name = os.fspath(path)
     try:
-        samples, maximum, grey, alpha, orientation, note, floor = _decode(name)
+        samples, maximum, grey, alpha, orientation, note, floor, profile = _decode(name)
     except IsophoteError:
         raise
     except FileNotFoundError:
@@ -120,7 +124,27 @@ def read_image(path) -> Raster:
     if maximum == 65535:
         pixels /= 257.0
         depth = 16
-    return Raster(np.ascontiguousarray(pixels), depth, grey, alpha, note, floor)
+    pixels, profile, why = _kept_profile(pixels, profile)
+    note = "; ".join(n for n in (note, why) if n)
+    return Raster(np.ascontiguousarray(pixels), depth, grey, alpha, note, floor, profile)
+
+
+def _kept_profile(pixels, profile):
+    """(pixels, the profile to keep or None, a note): a profile that fits the samples is kept
+    (icc.py says why); one too large for a master's meta has its pixels converted to sRGB;
+    one of another colour space is dropped, with a note."""
+    if not profile:
+        return pixels, None, ""
+    from . import icc
+
+    c = pixels.shape[2]
+    if not icc.fits(profile, c):
+        space = icc.colour_space(profile) or "unreadable"
+        return pixels, None, f"embedded ICC profile ({space}) does not fit {'grey' if c < 3 else 'RGB'} samples: ignored"
+    if len(profile) > icc.MAX_PROFILE_BYTES:
+        name = icc.describe(profile)
+        return icc.to_srgb(pixels, profile), None, f"embedded ICC profile {name!r} too large to keep: converted to sRGB"
+    return pixels, profile, ""
 
 
 def _is_empty(name) -> bool:
@@ -179,7 +203,11 @@ def _decode(path):
                 note = f"{im.format} has {frames} frames (animated or multi-page): first frame used"
                 im.seek(0)
             fmt = im.format
-            if im.mode == "RGBA" and _rawmodes(im) == {"LA;16B"}:
+            profile = im.info.get("icc_profile") or None
+            if im.mode == "CMYK" and profile:
+                out = _decode_plain(_cmyk_to_srgb(im, profile))
+                profile = None
+            elif im.mode == "RGBA" and _rawmodes(im) == {"LA;16B"}:
                 # 16-bit grey + alpha PNG: Pillow's only decoder for it keeps the high bytes.
                 # Unpacked as 8-bit RGBA instead, its four bytes come through unchanged.
                 im.tile = [_with_rawmode(t, "RGBA") for t in im.tile]
@@ -196,7 +224,20 @@ def _decode(path):
                 out = _decode_plain(im)
             orientation = _orientation(im)
             floor = jpeg_noise_floor(im)
-    return (*out, orientation, note, floor)
+    return (*out, orientation, note, floor, profile)
+
+
+def _cmyk_to_srgb(im, profile):
+    """A CMYK image with its profile, as sRGB through LittleCMS (a render cannot be CMYK)."""
+    from PIL import ImageCms
+
+    from .icc import open_profile
+
+    src = open_profile(profile)
+    if src is None:
+        return im.convert("RGB")
+    im.load()
+    return ImageCms.profileToProfile(im, src, ImageCms.createProfile("sRGB"), outputMode="RGB")
 
 
 def dct_quantisation_error(table) -> float:
@@ -403,6 +444,7 @@ FORMATS = {
 DEPTH16_FORMATS = ("PNG", "TIFF")
 ALPHA_FORMATS = ("PNG", "TIFF", "WEBP")
 LOSSY_FORMATS = ("JPEG", "WEBP")  # the formats --quality applies to
+PROFILE_FORMATS = ("PNG", "TIFF", "JPEG", "WEBP")  # those that embed an ICC profile
 _EXT = {fmt: ext[1:] for ext, fmt in reversed(list(FORMATS.items()))}  # format -> its first extension
 
 
@@ -426,7 +468,7 @@ def check_format(path, depth: int = 8, channels: int = 3) -> str:
 
 
 def write_image(path, pixels: np.ndarray, depth: int = 8, quality: int = WriteOptions.quality,
-                fmt: str | None = None) -> None:
+                fmt: str | None = None, icc_profile: bytes | None = None) -> None:
     """Write (H, W) or (H, W, C) float samples on 0..255 (C in 1..4) atomically.
 
     Samples already quantised are written as they are: uint8 with depth 8, uint16 (on
@@ -434,12 +476,16 @@ def write_image(path, pixels: np.ndarray, depth: int = 8, quality: int = WriteOp
     depth 16 is kept by PNG and TIFF; other formats are 8-bit and refuse depth 16 with an
     OptionError, as JPEG and BMP refuse an alpha channel. ``quality`` (1..100) is JPEG's and
     WebP's; ``fmt`` (a Pillow format name of FORMATS) overrides the one the extension names.
+    ``icc_profile`` (bytes): the ICC profile the samples are coded in, embedded in PNG
+    (iCCP), TIFF, JPEG and WebP; BMP cannot carry one, so its samples are converted to sRGB
+    instead (icc.py).
     """
-    data = image_bytes(pixels, fmt or path, depth=depth, quality=quality)
+    data = image_bytes(pixels, fmt or path, depth=depth, quality=quality, icc_profile=icc_profile)
     _atomic_write(path, lambda f: f.write(data))
 
 
-def image_bytes(pixels: np.ndarray, fmt, depth: int = 8, quality: int = WriteOptions.quality) -> bytes:
+def image_bytes(pixels: np.ndarray, fmt, depth: int = 8, quality: int = WriteOptions.quality,
+                icc_profile: bytes | None = None) -> bytes:
     """The bytes :func:`write_image` writes; ``fmt`` is a format name of FORMATS ("PNG") or a
     path whose extension names one (standard output has no name: ``isophote render -o -``)."""
     exact = np.asarray(pixels).dtype == (np.uint16 if depth == 16 else np.uint8)
@@ -453,9 +499,17 @@ def image_bytes(pixels: np.ndarray, fmt, depth: int = 8, quality: int = WriteOpt
     c = a.shape[2]
     fmt = check_format("x." + _EXT[fmt] if fmt in _EXT else fmt, depth, c)
     WriteOptions(quality=quality).validate()
+    if icc_profile:
+        from . import icc
+
+        if not icc.fits(icc_profile, c):
+            raise ValueError(f"the ICC profile ({icc.colour_space(icc_profile)}) does not describe {c}-channel samples")
+        if fmt not in PROFILE_FORMATS:
+            scale = 257.0 if a.dtype == np.uint16 else 1.0
+            a, icc_profile, exact = icc.to_srgb(a.astype(np.float64) / scale, icc_profile), None, False
     if depth == 16:
         q = a if exact else np.clip(np.rint(a * 257.0), 0, 65535).astype(np.uint16)
-        return _png16(q) if fmt == "PNG" else _tiff16(q)
+        return _png16(q, icc_profile) if fmt == "PNG" else _tiff16(q, icc_profile)
     import io
 
     from PIL import Image
@@ -467,14 +521,18 @@ def image_bytes(pixels: np.ndarray, fmt, depth: int = 8, quality: int = WriteOpt
         kwargs["quality"] = int(quality)
     if fmt == "PNG":
         kwargs["compress_level"] = 6
+    if icc_profile:
+        kwargs["icc_profile"] = icc_profile
     buf = io.BytesIO()
     im.save(buf, format=fmt, **kwargs)
     return buf.getvalue()
 
 
-def _png16(a: np.ndarray) -> bytes:
+def _png16(a: np.ndarray, icc_profile: bytes | None = None) -> bytes:
     """A 16-bit PNG of (H, W) or (H, W, C) uint16 samples (C = 1 grey, 2 grey+alpha, 3 RGB,
-    4 RGBA): the signature, IHDR, one IDAT of unfiltered rows, IEND (PNG spec, 11.2)."""
+    4 RGBA): the signature, IHDR, an iCCP chunk when there is a profile (PNG spec, 11.3.3.3:
+    a name, a zero byte, compression method 0, the zlib-compressed profile), one IDAT of
+    unfiltered rows, IEND (PNG spec, 11.2)."""
     if a.ndim == 2:
         a = a[..., None]
     h, w, c = a.shape
@@ -487,17 +545,20 @@ def _png16(a: np.ndarray) -> bytes:
         return struct.pack(">I", len(payload)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
 
     ihdr = struct.pack(">IIBBBBB", w, h, 16, colour_type, 0, 0, 0)
+    iccp = chunk(b"iCCP", b"ICC profile\x00\x00" + zlib.compress(icc_profile, 6)) if icc_profile else b""
     return (
         b"\x89PNG\r\n\x1a\n"
         + chunk(b"IHDR", ihdr)
+        + iccp
         + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
         + chunk(b"IEND", b"")
     )
 
 
-def _tiff16(a: np.ndarray) -> bytes:
+def _tiff16(a: np.ndarray, icc_profile: bytes | None = None) -> bytes:
     """A 16-bit little-endian baseline TIFF, one uncompressed strip, of (H, W) or (H, W, C)
-    uint16 samples: grey (BlackIsZero) or RGB, with unassociated alpha as an extra sample."""
+    uint16 samples: grey (BlackIsZero) or RGB, with unassociated alpha as an extra sample,
+    and the ICC profile, if any, in tag 34675 (InterColorProfile, UNDEFINED bytes)."""
     if a.ndim == 2:
         a = a[..., None]
     h, w, c = a.shape
@@ -516,11 +577,16 @@ def _tiff16(a: np.ndarray) -> bytes:
     ]
     if c in (2, 4):
         entries.append((338, 3, 1, 2))  # ExtraSamples: unassociated alpha
+    profile = bytes(icc_profile or b"")
+    profile += b"\x00" * (len(profile) % 2)  # the pixels after it stay on an even offset
+    if icc_profile:
+        entries.append((34675, 7, len(icc_profile), None))  # InterColorProfile
     n = len(entries)
     ifd_off = 8
     bps = struct.pack("<" + "H" * c, *([16] * c)) if c > 2 else b""  # else inside the entry
     bps_off = ifd_off + 2 + 12 * n + 4
-    pix_off = bps_off + len(bps)  # even, as TIFF asks of offsets
+    icc_off = bps_off + len(bps)
+    pix_off = icc_off + len(profile)  # even, as TIFF asks of offsets
     out = bytearray(b"II*\x00" + struct.pack("<I", ifd_off) + struct.pack("<H", n))
     for tag, typ, count, value in entries:
         if tag == 258 and c <= 2:
@@ -530,12 +596,15 @@ def _tiff16(a: np.ndarray) -> bytes:
             value = bps_off
         if tag == 273:
             value = pix_off
+        if tag == 34675:
+            value = icc_off
         if typ == 3 and count == 1:
             out += struct.pack("<HHIHH", tag, typ, count, value, 0)
         else:
             out += struct.pack("<HHII", tag, typ, count, value)
     out += struct.pack("<I", 0)  # no next IFD
     out += bps
+    out += profile
     out += pix
     return bytes(out)
 

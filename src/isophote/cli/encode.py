@@ -103,8 +103,10 @@ def run(args) -> int:
     from ..encoder import encode_pixels
     from ..format.isoph import dumps
     from ..imageio import read_image
+    from ..provenance import made_meta
 
-    opts = options(args, EncodeOptions, ENCODE_FLAGS).resolved()  # bad options fail before reading
+    given = options(args, EncodeOptions, ENCODE_FLAGS)
+    opts = given.resolved()  # bad options fail before reading
     check_output(args.output, args.input, extensions=(".isoph",), force=args.force, what="encode")
     with input_path(args.input) as path:
         if _is_svg_file(path):
@@ -125,7 +127,9 @@ def run(args) -> int:
     job.progress(f"encoding {w}x{h}, channels {' '.join(names)}...")
     if raster.noise_floor is not None and opts.noise_floor is None:
         opts = replace(opts, noise_floor=raster.noise_floor)  # a JPEG's quantisation error
+        given = replace(given, noise_floor=raster.noise_floor)
     vi = encode_pixels(raster.pixels, raster.depth, opts)
+    vi = replace(vi, meta=made_meta(given, "<stdin>" if args.input == "-" else args.input, raster))
     job.progress(f"writing {shown(args.output)}")
     data = dumps(vi)
     write_output(args.output, data)

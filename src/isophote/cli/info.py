@@ -28,4 +28,10 @@ def run(args) -> int:
               f"{c['segments']:9d} segments {c.get('caps', 0):7d} caps{extra}")
     if segments:
         print(f"  {segments:,} segments, {info['bytes'] / segments:.2f} bytes per segment")
+    from ..icc import colour_line
+    from ..provenance import made_lines
+
+    print(f"  colour: {colour_line(info['meta'])}")
+    for line in made_lines(info["meta"]):
+        print(f"  {line}")
     return 0

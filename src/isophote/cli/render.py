@@ -79,12 +79,12 @@ def raster_format(args) -> str:
     return ext
 
 
-def write_raster(args, ext: str, pixels, depth: int = 8) -> None:
+def write_raster(args, ext: str, pixels, depth: int = 8, icc_profile: bytes | None = None) -> None:
     from ..imageio import FORMATS, image_bytes
     from ..options import WriteOptions
 
     quality = WriteOptions().quality if args.quality is None else args.quality
-    write_output(args.output, image_bytes(pixels, FORMATS[ext], depth=depth, quality=quality))
+    write_output(args.output, image_bytes(pixels, FORMATS[ext], depth=depth, quality=quality, icc_profile=icc_profile))
 
 
 def check_crop(crop, vi) -> None:
@@ -129,6 +129,7 @@ def add_render_arguments(p) -> None:
 
 
 def run_render(args) -> int:
+    from ..icc import profile_of
     from ..imageio import check_format
     from ..render import render, viewport
 
@@ -158,7 +159,7 @@ def run_render(args) -> int:
     job.progress(f"rendering {vp.out_w}x{vp.out_h} ({opts.fill})...")
     q = render(vi, **{f.name: getattr(opts, f.name) for f in fields(opts)})  # uint8 / uint16, as written
     job.progress(f"writing {shown(args.output)}")
-    write_raster(args, ext, q, depth=opts.depth)
+    write_raster(args, ext, q, depth=opts.depth, icc_profile=profile_of(vi.meta))
     how = opts.fill if opts.fill == "flat" else f"{opts.fill}/{opts.distance}"
     job.done(f"{shown(args.output)}: {vp.out_w}x{vp.out_h} {KINDS[1 if q.ndim == 2 else q.shape[2]]} "
              f"{opts.depth}-bit, {how}")

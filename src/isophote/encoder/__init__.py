@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from ..errors import InputError
 from ..limits import MAX_PIXELS
 from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
+from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
@@ -56,9 +58,10 @@ def encode(image, **options) -> VectorImage:
         on the 0..255 scale.
     **options : the fields of :class:`isophote.options.EncodeOptions`.
     """
-    opts = make(EncodeOptions, options).resolved()
+    given = make(EncodeOptions, options)
+    opts = given.resolved()
     pixels, depth = _as_pixels(image)
-    return encode_pixels(pixels, depth, opts)
+    return replace(encode_pixels(pixels, depth, opts), meta=encoder_meta(given))
 
 
 def _as_pixels(image):
