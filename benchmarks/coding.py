@@ -50,6 +50,7 @@ import isophote.encoder as encoder
 from isophote import metrics
 from isophote.format._coder import entropy
 from isophote.format import isoph
+from isophote.format.isoph import columns as isoph_columns, layout as isoph_layout, rangecoded as isoph_range, write as isoph_write
 
 STEPS = ["columns+zlib", "columns+lzma", "columns+rc", "range v2, g=0", "range v2", "range v3", "range"]
 COARSE = "coarse handles"
@@ -72,7 +73,7 @@ def encode_at(img, quant: int, handle_shift: int = 0, anchor_grid: float = 0.0, 
 def column_values(ch) -> dict:
     """The column layout's columns as signed values (before zigzag and planes)."""
     c = ch.level.shape[0]
-    d = np.diff(isoph._stored_points(ch), axis=0, prepend=np.zeros((1, 2), np.int64))
+    d = np.diff(isoph_layout.stored_points(ch), axis=0, prepend=np.zeros((1, 2), np.int64))
     return {
         "level": np.diff(ch.level, prepend=0),
         "nseg": ch.nseg - 1,
@@ -80,7 +81,7 @@ def column_values(ch) -> dict:
         "points": d.ravel(),
         "cap_band": ch.cap_band,
         "cap_contour": np.diff(ch.cap_contour, prepend=-1),
-        "cap_xy": (ch.cq - isoph._cap_origins(ch.q, ch.offsets, ch.cap_contour)).ravel(),
+        "cap_xy": (ch.cq - isoph_layout.cap_origins(ch.q, ch.offsets, ch.cap_contour)).ravel(),
         "cap_value": ch.vq,
         "border": ch.border.astype(np.int64),
     }
@@ -103,10 +104,10 @@ def range_bytes(checked, g_forced=None, account=False, version=isoph.FORMAT_VERS
     total, bits = 0, np.zeros(entropy.N_MODELS + 18)
     for ch in checked:
         info = ch.info
-        pts = isoph._stored_points(ch)
-        s_p, s_c, s_v = isoph._grid_shift(pts), isoph._grid_shift(ch.cq), isoph._grid_shift(ch.vq)
+        pts = isoph_layout.stored_points(ch)
+        s_p, s_c, s_v = isoph_range.grid_shift(pts), isoph_range.grid_shift(ch.cq), isoph_range.grid_shift(ch.vq)
         pts = pts >> s_p
-        g = isoph._anchor_shift(pts[0::3]) if g_forced is None else g_forced
+        g = isoph_range.anchor_shift(pts[0::3]) if g_forced is None else g_forced
         coded, b = entropy.encode_channel(
             ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), g,
             ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> s_c), ch.vq >> s_v,
@@ -137,7 +138,7 @@ def stream_bytes_range(bits) -> dict:
 def stream_bytes_columns(checked) -> dict:
     out = {}
     for ch in checked:
-        raw = isoph._column_channel(ch)
+        raw = isoph_columns.column_channel(ch)
         c, s, k = ch.info.n_contours, ch.info.n_segments, ch.info.n_caps
         pos = 0
         for name, n in [("level", 2 * c), ("nseg", 4 * c), ("parent", 4 * c), ("points", 24 * s),
@@ -160,8 +161,8 @@ def main(argv=None):
     warm.render()
     for comp in ("range", "zlib"):
         isoph.loads(isoph.dumps(warm, compression=comp))
-    columns_rc([isoph._checked_channel(c) for c in warm.channels])
-    range_bytes([isoph._checked_channel(c) for c in warm.channels], account=True)
+    columns_rc([isoph_write.checked_channel(c) for c in warm.channels])
+    range_bytes([isoph_write.checked_channel(c) for c in warm.channels], account=True)
 
     rows = {}  # (step, quant) -> {image: bytes}
     quality = {}  # quant -> {image: (psnr, ssimulacra2, segments)}
@@ -176,7 +177,7 @@ def main(argv=None):
             out = vi.render()
             segs = sum(c.n_segments for c in vi.channels)
             quality[q][name] = (metrics.psnr(img, out), metrics.ssimulacra2(img, out), segs)
-            checked = [isoph._checked_channel(c) for c in vi.channels]
+            checked = [isoph_write.checked_channel(c) for c in vi.channels]
             steps = {"range": len(isoph.dumps(vi))}
             header = steps["range"] - range_bytes(checked)[0]
             if q == quants[0]:
@@ -207,7 +208,7 @@ def main(argv=None):
                     steps[step] = len(isoph.dumps(cv))
                     assert isoph.loads(isoph.dumps(cv)).equals(cv)
                     streams[name] = stream_bytes_range(
-                        range_bytes([isoph._checked_channel(c) for c in cv.channels], account=True)[1])
+                        range_bytes([isoph_write.checked_channel(c) for c in cv.channels], account=True)[1])
             for step, nbytes in steps.items():
                 rows.setdefault((step, q), {})[name] = nbytes
             p, s2, _ = quality[q][name]

@@ -13,6 +13,7 @@ import isophote
 from isophote.format._coder import entropy as E
 from isophote.format._coder import entropy_ref as R
 from isophote.format import isoph
+from isophote.format.isoph import layout as isoph_layout, rangecoded as isoph_range, write as isoph_write
 
 from test_format import random_image, smooth_contour_set
 
@@ -132,8 +133,8 @@ def test_chord_frame_of_a_chord_is_its_length():
 
 
 def ref_fields(ch, info, version=4) -> dict:
-    """A checked channel (isoph._Checked) as the reference coder's plain fields."""
-    pts = isoph._stored_points(ch) >> info.s_p
+    """A checked channel (isoph_layout.Checked) as the reference coder's plain fields."""
+    pts = isoph_layout.stored_points(ch) >> info.s_p
     chains, t = [], 0
     for n in ch.nseg.tolist():
         chains.append([tuple(p) for p in pts[t : t + 3 * n].tolist()])
@@ -157,8 +158,8 @@ def check_channel(c, versions=VERSIONS):
 
 
 def check_channel_version(c, version):
-    ch = isoph._checked_channel(c)
-    coded = isoph._range_channel(ch, version)
+    ch = isoph_write.checked_channel(c)
+    coded = isoph_range.range_channel(ch, version)
     info = ch.info
     assert coded == R.encode_channel(ref_fields(ch, info, version))
     args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v)
@@ -225,8 +226,8 @@ def test_version_3_codes_photographic_contours_smaller():
     img = 128 + 60 * np.sin(xx / 7.0 + np.cos(yy / 9.0)) * np.cos(yy / 11.0) + 20 * np.sin(xx * yy / 300.0)
     img += 3 * np.random.default_rng(0).standard_normal(img.shape)
     vi = isophote.encode(np.clip(img, 0, 255))
-    ch = isoph._checked_channel(vi.channels[0])
-    sizes = [len(isoph._range_channel(ch, version)) for version in VERSIONS]
+    ch = isoph_write.checked_channel(vi.channels[0])
+    sizes = [len(isoph_range.range_channel(ch, version)) for version in VERSIONS]
     assert sizes[1] < sizes[0], sizes
 
 
@@ -240,11 +241,11 @@ def test_version_4_codes_coarse_handles_smaller():
     img += 3 * np.random.default_rng(0).standard_normal(img.shape)
     vi = isophote.encode(np.clip(img, 0, 255))
     check_channel(vi.channels[0])
-    ch = isoph._checked_channel(vi.channels[0])
-    v3, v4 = (len(isoph._range_channel(ch, version)) for version in (3, 4))
+    ch = isoph_write.checked_channel(vi.channels[0])
+    v3, v4 = (len(isoph_range.range_channel(ch, version)) for version in (3, 4))
     assert v4 < 0.9 * v3, (v3, v4)
-    rand = isoph._checked_channel(random_image(5, "grey", n_contours=20).channels[0])
-    r3, r4 = (len(isoph._range_channel(rand, version)) for version in (3, 4))
+    rand = isoph_write.checked_channel(random_image(5, "grey", n_contours=20).channels[0])
+    r3, r4 = (len(isoph_range.range_channel(rand, version)) for version in (3, 4))
     assert r3 <= r4 <= r3 + rand.info.n_segments // 8 + 8, (r3, r4)
 
 
@@ -297,7 +298,7 @@ def test_handle_shift_beyond_the_largest_is_refused(monkeypatch):
         c = pts[o0:o1]  # one closed chain: P0, Ca, Cb, P1, ..., Pm = P0
         a, n = c[0:-1:3].copy(), c[3::3].copy()
         c[1::3], c[2::3] = a + (n - a) / 3, n - (n - a) / 3
-    ch = isoph._checked_channel(replace(base, points=pts, border=np.zeros_like(base.border)))
+    ch = isoph_write.checked_channel(replace(base, points=pts, border=np.zeros_like(base.border)))
     info = ch.info
     monkeypatch.setattr(R, "MAX_HANDLE_SHIFT", E.MAX_HANDLE_SHIFT + 1)
     fields = ref_fields(ch, info, 4)
@@ -306,15 +307,15 @@ def test_handle_shift_beyond_the_largest_is_refused(monkeypatch):
     out, ref = decode_both(coded, info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c,
                            info.s_v, info.levels.tolist(), info.base_band, 4)
     assert out[0] == E.E_SHIFT and ref == "handle shift"
-    assert isoph._RANGE_ERRORS[E.E_SHIFT].format(where=out[1]) == f"a handle shift in contour {out[1]} is above 5"
+    assert isoph_range.RANGE_ERRORS[E.E_SHIFT].format(where=out[1]) == f"a handle shift in contour {out[1]} is above 5"
 
 
 @pytest.mark.parametrize("version", VERSIONS)
 def test_mutated_channels_decode_alike(version):
     """Real coded channels with a byte changed: the same verdict from both decoders."""
     vi = isophote.encode(np.clip(np.add.outer(np.arange(12) * 15.0, np.arange(14) * 9.0), 0, 255))
-    ch = isoph._checked_channel(vi.channels[0])
-    coded = isoph._range_channel(ch, version)
+    ch = isoph_write.checked_channel(vi.channels[0])
+    coded = isoph_range.range_channel(ch, version)
     info = ch.info
     rng = np.random.default_rng(4)
     verdicts = set()

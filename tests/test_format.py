@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 from isophote.format._coder import entropy_ref
 from isophote.errors import FormatError, InputError, IsophoteError, LimitError
 from isophote.format import isoph
+from isophote.format.isoph import header as isoph_header
 from isophote.model import Channel, VectorImage
 
 Q = 64  # the 1/64 grid, typed out rather than imported: the spec says 64
@@ -964,7 +965,7 @@ def test_version_2_files_are_read():
     assert isoph.loads(old).equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
     old = bytes.fromhex(V2_FITTED_FILE)
     assert isoph.read_info(old)["format_version"] == 2
-    assert isoph._parse_header(old, len(old)).channels[0].g > 0  # the anchor grid is on
+    assert isoph_header.parse_header(old, len(old)).channels[0].g > 0  # the anchor grid is on
     out = isoph.loads(old)
     assert fingerprint(out) == V2_FITTED_FINGERPRINT
     again = isoph.dumps(out)

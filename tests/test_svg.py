@@ -17,6 +17,7 @@ import pytest
 import isophote
 from isophote.errors import FormatError, LimitError
 from isophote.format import svg
+from isophote.format.svg import read as svg_read
 from isophote.format.isoph import loads as isoph_loads, dumps as isoph_dumps
 from isophote.model import Channel, VectorImage
 from isophote.render import render_float
@@ -200,7 +201,7 @@ def test_writer_refuses_a_bad_tone_curve(small, knots):
 
 def test_too_many_tone_knots_are_refused(monkeypatch, small):
     text = svg.to_svg(_with_tone(small, "Y", [[0, 0], [100, 50], [255, 255]]))
-    monkeypatch.setattr(svg, "MAX_TONE_KNOTS", 2)
+    monkeypatch.setattr(svg_read, "MAX_TONE_KNOTS", 2)
     with pytest.raises(LimitError):
         svg.from_svg(text)
 
@@ -570,7 +571,7 @@ def test_border_flags_must_be_binary(small):
 
 def test_oversized_input_is_refused(monkeypatch, small):
     text = svg.to_svg(small, preview=_flat_preview(small))
-    monkeypatch.setattr(svg, "MAX_SVG_BYTES", len(text) - 1)
+    monkeypatch.setattr(svg_read, "MAX_SVG_BYTES", len(text) - 1)
     with pytest.raises(LimitError):
         svg.from_svg(text)
     with pytest.raises(LimitError):

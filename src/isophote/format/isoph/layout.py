@@ -1,0 +1,98 @@
+"""The .isoph byte layout (docs/format.md, "Preamble", "Header body") and the records the
+header, the writer and the readers pass each other."""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+
+from ...model import CAP_RAMP, Channel
+from ...shared.grid import QUANT
+from ..limits import MAX_CHANNELS, MAX_LEVELS, MAX_META_BYTES, MAX_TONE_KNOTS
+
+PREAMBLE = struct.Struct("<8sHHI")  # magic, version, reserved, header_size
+FIXED = struct.Struct("<IIBBBBHHQQII")  # width .. meta_size: offsets 16 .. 56
+# name, n_levels, base_band, n_contours, n_segments, n_caps, n_tone, point_shift,
+# anchor_shift, cap_shift, value_shift, coded_size
+CHANNEL = struct.Struct("<cHHIIIHBBBBQ")
+CHANNEL_V1 = struct.Struct("<cHHIII")  # name .. n_caps
+CAP_RAMP_FIELD = struct.Struct("<d")  # after the levels and tone knots (versions 3 and 4)
+CRC = struct.Struct("<I")
+PREAMBLE_BYTES = PREAMBLE.size  # 16
+MIN_HEADER_BYTES = PREAMBLE_BYTES + FIXED.size + CHANNEL_V1.size + CRC.size
+# The largest header the limits allow (about 350 KiB): read_info reads no more.
+MAX_HEADER_BYTES = (
+    PREAMBLE_BYTES + FIXED.size + MAX_META_BYTES
+    + MAX_CHANNELS * (CHANNEL.size + 8 * MAX_LEVELS + 16 * MAX_TONE_KNOTS + CAP_RAMP_FIELD.size) + CRC.size
+)
+
+
+class ChannelInfo:
+    """One channel's summary in the header."""
+
+    __slots__ = ("name", "levels", "base_band", "n_contours", "n_segments", "n_caps", "tone",
+                 "s_p", "g", "s_c", "s_v", "coded_size", "cap_ramp")
+
+    def __init__(self, name, levels, base_band, n_contours, n_segments, n_caps, tone=None,
+                 s_p=0, g=0, s_c=0, s_v=0, coded_size=0, cap_ramp=CAP_RAMP):
+        self.name, self.levels, self.base_band = name, levels, base_band
+        self.n_contours, self.n_segments, self.n_caps = n_contours, n_segments, n_caps
+        self.tone, self.coded_size, self.cap_ramp = tone, coded_size, cap_ramp
+        self.s_p, self.g, self.s_c, self.s_v = s_p, g, s_c, s_v
+
+
+class Header:
+    """A checked header (header.parse_header)."""
+
+    __slots__ = (
+        "version", "width", "height", "colour", "source_depth", "compression",
+        "payload_size", "raw_size", "payload_crc", "meta", "channels", "header_size",
+    )
+
+
+class Checked:
+    """One channel, checked against the data model, on the 1/64 grids (int64)."""
+
+    __slots__ = ("info", "level", "offsets", "nseg", "q", "border", "parent", "cap_band",
+                 "cap_contour", "cq", "vq")
+
+
+def raw_channel_bytes(c: int, s: int, k: int) -> int:
+    """Bytes of one channel's raw payload (see the column table)."""
+    return 10 * c + 24 * s + 18 * k + (s + 7) // 8
+
+
+def stored_points(ch: Checked) -> np.ndarray:
+    """(3 S, 2): the chains' points without their closing points."""
+    keep = np.ones(ch.q.shape[0], bool)
+    keep[ch.offsets[1:] - 1] = False
+    return ch.q[keep]
+
+
+def cap_origins(q: np.ndarray, offsets: np.ndarray, cap_contour: np.ndarray) -> np.ndarray:
+    """(K, 2): the first point of each cap's contour, (0, 0) for the root region."""
+    origins = np.zeros((cap_contour.shape[0], 2), np.int64)
+    inner = cap_contour >= 0
+    origins[inner] = q[offsets[cap_contour[inner]]]
+    return origins
+
+
+def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq) -> Channel:
+    """A Channel in canonical dtypes from decoded integers (1/64 units)."""
+    return Channel(
+        name=info.name,
+        levels=info.levels.copy(),
+        contour_level=level.astype(np.int32),
+        offsets=offsets,
+        points=q.astype(np.float64) / QUANT,
+        border=border.astype(bool),
+        parent=parent.astype(np.int32),
+        cap_band=cap_band.astype(np.int32),
+        cap_contour=cap_contour.astype(np.int32),
+        cap_xy=cq.astype(np.float64) / QUANT,
+        cap_value=vq.astype(np.float64) / QUANT,
+        base_band=info.base_band,
+        tone=None if info.tone is None else info.tone.copy(),
+        cap_ramp=float(info.cap_ramp),
+    )

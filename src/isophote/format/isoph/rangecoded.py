@@ -1,0 +1,108 @@
+"""Range-coded channels (compression 3, docs/format.md "Range-coded channels"), both ways:
+the grids a channel's integers are put on, and the coder's calls (format/_coder/entropy.py)
+with what each of its error statuses means."""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from ...errors import FormatError
+from ..limits import CAP_VALUE_LIMIT, COORD_LIMIT, FORMAT_VERSION, MAX_ANCHOR_SHIFT, MAX_GRID_SHIFT
+from ..validate import check_semantics
+from .._coder import entropy
+from .layout import Checked, stored_points, to_channel
+
+PARALLEL_SEGMENTS = 20_000  # range-code channels in threads above this many segments
+
+assert entropy.LIMIT == COORD_LIMIT == CAP_VALUE_LIMIT
+
+
+def map_channels(fn, items, n_segments):
+    """[fn(x) for x in items], in threads for big images (the kernels release the GIL)."""
+    if n_segments < PARALLEL_SEGMENTS or len(items) < 2:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(max_workers=min(len(items), os.cpu_count() or 1, 4)) as pool:
+        return list(pool.map(fn, items))
+
+
+def grid_shift(a: np.ndarray) -> int:
+    """The largest s <= MAX_GRID_SHIFT such that every value of ``a`` is a multiple of 2**s."""
+    if a.size == 0:
+        return 0
+    bits = int(np.bitwise_or.reduce(a.ravel()))
+    s = 0
+    while s < MAX_GRID_SHIFT and bits & ((1 << (s + 1)) - 1) == 0:
+        s += 1
+    return s
+
+
+def anchor_shift(anchors: np.ndarray) -> int:
+    """The anchor grid g that saves the most bits (0: none), decided in integers.
+
+    An anchor flag costs about 1.5 bits and an on-grid coordinate saves about g bits, so
+    g scores 2 g (on-grid coordinates) - 3 (anchors). Points off any grid score < 0 for
+    every g (a coordinate is on the 2**g grid with probability 2**-g, and g 2**(1-g) <= 1).
+    """
+    best, best_g = 0, 0
+    n = anchors.shape[0]
+    for g in range(1, MAX_ANCHOR_SHIFT + 1):
+        on = int(np.count_nonzero((anchors & ((1 << g) - 1)) == 0))
+        score = 2 * g * on - 3 * n
+        if score > best:
+            best, best_g = score, g
+    return best_g
+
+
+def range_channel(ch: Checked, version: int = FORMAT_VERSION) -> bytes:
+    """One channel range-coded (compression 3) in ``version``'s layout (2, 3 or 4); sets its
+    grids and coded size in ch.info."""
+    info = ch.info
+    pts = stored_points(ch)
+    info.s_p = grid_shift(pts)
+    info.s_c = grid_shift(ch.cq)
+    info.s_v = grid_shift(ch.vq)
+    pts = pts >> info.s_p
+    info.g = anchor_shift(pts[0::3])
+    coded, _ = entropy.encode_channel(
+        ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), info.g,
+        ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c), ch.vq >> info.s_v,
+        info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version, False,
+    )
+    info.coded_size = int(coded.shape[0])
+    return coded.tobytes()
+
+
+# What each decoder status means: (message template, with {where} and {extra}).
+RANGE_ERRORS = {
+    entropy.E_RANK: "contour {where}: parent candidate {extra} does not exist",
+    entropy.E_PARENT: "parent {extra} (entry {where}) is outside [-1, {c})",
+    entropy.E_LEVEL: "contour level {extra} (entry {where}) is outside [0, {L})",
+    entropy.E_NSEG: "contours have more than {s} segments, the header declares {s}",
+    entropy.E_NSEG_SHORT: "contours have {extra} segments, the header declares {s}",
+    entropy.E_POINT: "a control point of contour {where} lies beyond the format's limit",
+    entropy.E_CAP_CONTOUR: "cap contour {extra} (entry {where}) is outside [-1, {c})",
+    entropy.E_CAP_XY: "cap position {where} lies beyond the format's limit",
+    entropy.E_CAP_VALUE: "cap value {where} lies beyond the format's limit",
+    entropy.E_SHORT: "range-coded data ends early (truncated or corrupted)",
+    entropy.E_LONG: "range-coded data has bytes left over (corrupted)",
+    entropy.E_SHIFT: f"a handle shift in contour {{where}} is above {entropy.MAX_HANDLE_SHIFT}",
+}
+
+
+def decode_range_channel(item):
+    """One channel off its range-coded bytes: ``item`` is (ChannelInfo, bytes, version)."""
+    info, data, version = item
+    c, s, k = info.n_contours, info.n_segments, info.n_caps
+    (status, where, extra, level, nseg, parent, q, border, cap_contour, cap_band, cq, vq) = \
+        entropy.decode_channel(data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels,
+                               info.base_band, version)
+    if status != entropy.OK:
+        msg = RANGE_ERRORS[status].format(where=where, extra=extra, c=c, s=s, L=info.levels.shape[0])
+        raise FormatError(f"channel {info.name}: {msg}")
+    check_semantics(info.name, info.levels.shape[0], level, parent, cap_band, cap_contour)
+    offsets = np.zeros(c + 1, np.int64)
+    np.cumsum(3 * nseg + 1, out=offsets[1:])
+    return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq)

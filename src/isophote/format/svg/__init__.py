@@ -1,0 +1,141 @@
+"""SVG: a VectorImage as an SVG 1.1 document that every viewer shows and isophote reads back.
+
+This docstring is the specification of the isophote SVG profile.
+
+What a file holds
+=================
+One document does two jobs:
+
+- a PREVIEW that any browser, Inkscape or resvg shows as the photograph: the Y channel's
+  contours filled flat (nonzero rule) with the mean colour of the isophote render inside
+  each contour's region, stacked by the painter's algorithm (every parent before its
+  children, so each contour paints its whole footprint and its children paint over it:
+  no gaps between regions, and anti-aliased edges blend neighbouring region colours, never
+  the background). A rectangle in the root region's colour lies underneath. The preview is
+  opaque: an alpha channel is kept (losslessly, hidden) but not shown.
+- the DATA: every contour of every channel, its level, its parent, its border flags, every
+  cap annotation, the levels, base band and tone curve of each channel, and the image's
+  size, colour, source depth and meta. The Y contours ARE the preview's paths (nothing is
+  stored twice); U, V and A sit in hidden layers. ``from_svg(to_svg(vi))`` equals ``vi`` exactly
+  (``VectorImage.equals``, dtypes included, for any valid image, on the 1/64 grid or not).
+
+Layout::
+
+    <svg xmlns="http://www.w3.org/2000/svg" xmlns:iso="urn:x-isophote:svg:1"
+         xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+         version="1.1" width="W" height="H" viewBox="0 0 W H"
+         iso:format="1" iso:width="W" iso:height="H" iso:colour="yuv" iso:source-depth="8">
+      <metadata><iso:meta>{"json":"object"}</iso:meta></metadata>     (only if meta)
+      <defs><linearGradient id="isophote-g12" .../> ...</defs>      (preview only)
+      <rect width="W" height="H" fill="#rrggbb"/>                      (preview only)
+      <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
+         transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
+         iso:base-band="0" iso:caps="contour band x y value ..."
+         [iso:tone="x0 y0 x1 y1 ..."] [iso:cap-ramp="R" or "dome"]>
+        <path iso:c="k level parent orientation segments" [iso:b="0011..."]
+              fill="#rrggbb" d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
+        ...
+      </g>
+      <g id="isophote-U" ... style="display:none" fill="none" stroke="#..."> ... </g>
+      ...
+    </svg>
+
+The canvas is ``iso:width`` x ``iso:height`` source pixels (model.py's coordinates; the
+viewBox says the same to viewers). Inside a channel layer, coordinates are in 1/64 source
+pixel (the layer's ``scale(0.015625)``): points on the encoder's 1/64 grid are integers, so
+they print short and exactly, and relative ``c`` commands (differences of integers) are
+exact too. A chain with any point off that grid is written with absolute ``C`` commands and
+Python's shortest round-trip float repr of 64 x the coordinate (exact: scaling by a power of
+two is exact). ``z`` closes the path; the last cubic already ends on the first point.
+
+Per contour, ``iso:c`` holds five integers: the contour's index k in the channel, its level
+index, its parent's index (-1: the frame), the sign of its signed area as written (+1, -1
+or 0) and its number of segments as written. Paths are written parents first (painter's
+order), not in index order; k restores the order. ``iso:b`` (only on contours that have
+border segments) is one '0'/'1' per segment.
+
+Caps: the layer's ``iso:caps`` lists the channel's caps in order, five numbers each:
+``contour band x y value``. For the root region (contour -1), (x, y) is the cap's position
+in the layer's units, exactly. A contour's caps also travel in its path data, as MARKERS:
+after the closing ``z``, one moveto per cap, in cap order ("m dx dy", relative to the
+chain's start and then to the previous marker; absolute "M x y" off the grid). A subpath
+that is only a moveto draws nothing in the preview, but editors transform it with the rest
+of the path (Inkscape bakes moves, rotations and flips into path data, markers included),
+so caps turn and mirror with their contour. For those caps (x, y) is a fallback, the offset
+from the contour's first point to the nearest layer unit, used when the markers are gone
+(Inkscape's Simplify drops them). ``value`` and the levels are shortest round-trip decimals.
+
+Tone: ``iso:tone`` (only on a channel that has a tone curve, model.py's Channel.tone) lists
+the curve's knots as "x y" pairs in order, shortest round-trip decimals (exact): at least
+two knots, at most MAX_TONE_KNOTS (.isoph's limit), every number in [0, 255], x strictly increasing, y
+non-decreasing. No attribute: no tone curve. The preview's colours are taken from the
+render, so they show the tone curve too.
+
+Cap ramp: ``iso:cap-ramp`` (only on a channel whose Channel.cap_ramp is not model.py's
+CAP_RAMP) is the ramp in pixels, a positive number, or "dome" for DOME (caps without a
+plateau, as equalisation leaves them). No attribute: CAP_RAMP.
+
+Preview colours: each Y region's mean over a 1x render of the image (by default the flat
+fill), or, where the colour drifts across a region enough to matter (GRADIENT_MIN_GAIN), a
+linear gradient (the best single-direction plane through the region's colours); the
+gradients sit in ``<defs>`` and are not data.
+
+Reading edited files
+====================
+What a drawing program may do, and what ``from_svg`` makes of it:
+
+- transforms on a path, a group or a layer (matrix, translate, scale, rotate, skewX, skewY,
+  any composition): applied to the control points (a cubic under an affine map is the map
+  of its control points, exactly) and to the caps' markers.
+- rewritten path data: absolute or relative M, L, H, V, C, S, Q, T, A and Z, with any
+  number syntax SVG allows. Lines, quadratics and the implicit closing line become cubics
+  (lines and quadratics exactly, arcs as quarter-turn pieces within 3e-4 of their radius). A contour must stay one
+  subpath; an open one is closed with a line.
+- more or fewer segments than written (node editing, simplifying): the stored border flags
+  no longer match, so a segment is a border segment when all four control points lie on
+  one edge of the frame (the encoder's border segments all do, and no others). A path with
+  other markers than caps (some dropped) places its caps by the fallback offsets.
+- mirroring and reversing: a contour whose signed area changed sign (a flip, a path
+  reversal) is reversed back, so its >= side stays on its left (model.py's orientation).
+- deleting a contour: the others are renumbered in order; children of a deleted contour
+  hang from the frame (-1), caps of its region are dropped (the renderer uses neither
+  parents nor cap contours, only band windings and cap positions).
+- z-order, grouping, ids, styles, colours, layer visibility, other namespaces, and paths,
+  shapes or text without ``iso:c`` (a drawing program's additions, the preview's rectangle
+  and gradients): ignored.
+
+Checked with Inkscape 1.2 (tests/test_svg.py, where it is installed): open and save keeps
+the image exactly; rotate, flip and align (move) are honoured, caps included.
+
+Validation
+==========
+Never trust a file. Every problem is a FormatError (a LimitError for a size over a limit)
+with a one-line reason, never another exception type: text over MAX_SVG_BYTES (also after
+gunzip, which stops reading at the limit), a DTD with entity declarations (refused before parsing: no
+entity expansion at all), XML that does not parse, a root that is not an isophote SVG,
+unknown format version, colour, depth or channel layout, bad numbers (not finite, beyond
+the .isoph limits), malformed transforms or path data, duplicate contours, levels, parents,
+bands out of range, parent cycles, tone curves that are not monotone or leave 0..255. The
+work is linear in the size of the text.
+
+Where it lives
+==============
+write.py (to_svg, save_svg), preview.py (the preview's colours), pathdata.py (SVG path data
+and transforms in general, and the fast path for the writer's own layout), read.py
+(from_svg, load_svg, is_svg), profile.py (the profile's constants, its tone rule and the
+contours' exact signed areas); the limits and the checks shared with .isoph are
+format/limits.py and format/validate.py.
+"""
+
+from __future__ import annotations
+
+from ..limits import MAX_SVG_BYTES, SVG_FORMAT_VERSION
+from .pathdata import parse_path, parse_transform
+from .profile import NS_ISO, _signed_areas  # noqa: F401  (_signed_areas: tests/test_svg.py)
+from .read import from_svg, is_svg, load_svg
+from .write import save_svg, to_svg
+
+__all__ = [
+    "to_svg", "from_svg", "save_svg", "load_svg", "is_svg", "parse_path", "parse_transform",
+    "SVG_FORMAT_VERSION", "NS_ISO", "MAX_SVG_BYTES",
+]
