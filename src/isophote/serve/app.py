@@ -238,6 +238,7 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
         Route("/dzi/{id}_files/{level:int}/{col:int}_{row:int}.{fmt}", dzi_tile),
         Route("/original/{id}", original),
         Route("/stats", stats),
+        Route("/favicon.ico", lambda request: Response(status_code=204)),
         Mount("/static", StaticFiles(directory=STATIC), name="static"),
     ]
     app = Starlette(routes=routes)

@@ -32,7 +32,7 @@
 
   const common = {
     prefixUrl: window.ISOPHOTE_STATIC + "openseadragon/images/",
-    showNavigator: false, maxZoomPixelRatio: 1.0, visibilityRatio: 0.5,
+    drawer: "canvas", showNavigator: false, maxZoomPixelRatio: 1.0, visibilityRatio: 0.5,
     animationTime: 0.6, springStiffness: 8, immediateRender: false, smoothTileEdgesMinZoom: Infinity,
   };
   const master = OpenSeadragon(Object.assign({ id: "master",
