@@ -32,7 +32,7 @@
 
   const common = {
     prefixUrl: window.ISOPHOTE_STATIC + "openseadragon/images/",
-    drawer: "canvas", showNavigator: false, maxZoomPixelRatio: 1.0, visibilityRatio: 0.5,
+    drawer: "canvas", preserveViewport: true, showNavigator: false, maxZoomPixelRatio: 1.0, visibilityRatio: 0.5,
     animationTime: 0.6, springStiffness: 8, immediateRender: false, smoothTileEdgesMinZoom: Infinity,
   };
   const master = OpenSeadragon(Object.assign({ id: "master",
@@ -85,15 +85,19 @@
   master.addHandler("viewport-change", update);
 
   // toggles: flat fill replaces the base layer; the contours are a transparent layer above
-  let contourLayer = null;
+  let contourLayer = null, adding = 0;
+  function added() { adding -= 1; }
   document.getElementById("flat").addEventListener("change", function (e) {
     const query = e.target.checked ? "?fill=flat" : "";
-    master.addTiledImage({ tileSource: iiifSource(C.iiif, query), index: 0, replace: true });
+    adding += 1;
+    master.addTiledImage({ tileSource: iiifSource(C.iiif, query), index: 0, replace: true,
+      success: added, error: added });
   });
   document.getElementById("contours").addEventListener("change", function (e) {
     if (e.target.checked && !contourLayer) {
-      master.addTiledImage({ tileSource: iiifSource(C.contours, ""),
-        success: function (ev) { contourLayer = ev.item; } });
+      adding += 1;
+      master.addTiledImage({ tileSource: iiifSource(C.contours, ""), error: added,
+        success: function (ev) { contourLayer = ev.item; added(); } });
     } else if (contourLayer) {
       contourLayer.setOpacity(e.target.checked ? 1 : 0);
     }
@@ -110,6 +114,7 @@
       master.viewport.applyConstraints(true);
     },
     loaded: function () {
+      if (adding > 0) return false;
       for (let i = 0; i < master.world.getItemCount(); i++) {
         if (!master.world.getItemAt(i).getFullyLoaded()) return false;
       }
