@@ -91,7 +91,7 @@ def open_viewer(p, chromium, url, user_data, size=(1000, 560)):
         str(user_data), executable_path=chromium, args=ARGS, headless=True,
         viewport={"width": size[0], "height": size[1]}, device_scale_factor=1)
     page = ctx.new_page()
-    page.goto(url)
+    page.goto(url, wait_until="domcontentloaded", timeout=120_000)
     page.wait_for_function("window.isophote && window.isophote.loaded()", timeout=30_000)
     return ctx, page
 

@@ -19,10 +19,8 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
-import json
 import os
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 from starlette.applications import Starlette
 from starlette.responses import FileResponse, HTMLResponse, JSONResponse, PlainTextResponse, RedirectResponse, Response
@@ -31,13 +29,11 @@ from starlette.staticfiles import StaticFiles
 
 from ..errors import IsophoteError
 from . import dzi, iiif
+from .page import BROWSER_FORMATS, STATIC, ZOOM, viewer_page
 from .tiles import FILLS, render_contours, render_tile
 
-STATIC = Path(__file__).parent / "static"
-ZOOM = 16  # the viewer's pyramid reaches ZOOM output pixels per source pixel
 CACHE_BYTES = 256 << 20
 MAX_AGE = 3600
-BROWSER_FORMATS = (".png", ".jpg", ".jpeg", ".webp", ".gif")
 
 
 class Busy(Exception):
@@ -244,22 +240,3 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
     app = Starlette(routes=routes)
     app.state.renderer = renderer
     return app
-
-
-def viewer_page(m, zoom: int, prefix: str = "/", dzi_url: str | None = None, original_url: str | None = None) -> str:
-    """The viewer's HTML for one master: static/viewer.html with its configuration."""
-    config = {
-        "id": m.id,
-        "width": m.width,
-        "height": m.height,
-        "zoom": zoom,
-        "tile": dzi.TILE,
-        "iiif": None if dzi_url else f"{prefix}iiif/{m.id}",
-        "contours": None if dzi_url else f"{prefix}contours/{m.id}",
-        "dzi": dzi_url,
-        "original": original_url or (f"{prefix}original/{m.id}" if m.original and not dzi_url else None),
-    }
-    page = (STATIC / "viewer.html").read_text(encoding="utf-8")
-    static = f"{prefix}static/" if not dzi_url else "static/"
-    blob = json.dumps(config).replace("<", "\\u003c")
-    return page.replace("{{STATIC}}", static).replace("{{CONFIG}}", blob).replace("{{TITLE}}", m.id)

@@ -62,8 +62,12 @@ def _originals(path, masters, original):
 
 
 def run_serve(args) -> int:
-    import uvicorn
-
+    try:
+        import starlette  # noqa: F401
+        import uvicorn
+    except ImportError as e:
+        raise OptionError(f"isophote serve needs Starlette and uvicorn ({e.name} is missing): "
+                          "pip install 'isophote[serve]'") from None
     from .app import create_app
     from .tiles import find_masters, load_master
 
@@ -101,7 +105,7 @@ def run_serve(args) -> int:
 
 def run_tiles(args) -> int:
     from . import dzi
-    from .app import BROWSER_FORMATS, STATIC, viewer_page
+    from .page import BROWSER_FORMATS, STATIC, viewer_page
     from .tiles import load_master
     from .write import write_pyramid
 
