@@ -365,3 +365,13 @@ def test_cache_serves_repeats(master):
     assert a.content == b.content
     stats = c.get("/stats").json()
     assert stats["hits"] == 1 and stats["misses"] == 1
+
+
+def test_an_original_browsers_cannot_show_is_served_as_png(master_files, tmp_path):
+    png, path = master_files
+    tif = tmp_path / "grad.tif"
+    write_image(tif, read_image(png).pixels)
+    c = TestClient(create_app([tiles.load_master(path, original=str(tif))]))
+    r = c.get("/original/grad")
+    assert r.headers["content-type"] == "image/png"
+    assert np.array_equal(decode(r.content), read_image(png).pixels.astype(np.uint8))

@@ -35,9 +35,14 @@ def chromium():
     if not os.path.exists(CHROMIUM):
         if os.geteuid() != 0 or shutil.which("apt-get") is None:
             pytest.skip(f"{CHROMIUM} is missing and cannot be installed here (needs root and apt-get)")
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
         try:
-            subprocess.run(["apt-get", "install", "-y", "chromium"], check=True, timeout=900,
-                           capture_output=True, env=dict(os.environ, DEBIAN_FRONTEND="noninteractive"))
+            for attempt in (["apt-get", "install", "-y", "chromium"], ["apt-get", "update"],
+                            ["apt-get", "install", "-y", "chromium"]):
+                done = subprocess.run(attempt, timeout=900, capture_output=True, env=env)
+                if attempt[1] == "install" and done.returncode == 0:
+                    break  # else: refresh the package lists once and try again
+            done.check_returncode()
         except (subprocess.SubprocessError, OSError) as e:
             pytest.skip(f"apt-get install -y chromium failed: {str(e).splitlines()[0]}")
         if not os.path.exists(CHROMIUM):
@@ -170,3 +175,51 @@ def test_viewer_at_16x_shows_the_render_of_that_view(chromium, tmp_path):
     got_lines = np.asarray(Image.open(io.BytesIO(lines)).convert("RGB")).astype(int)[:ch, :cw]
     red = (got_lines[..., 0] > 200) & (got_lines[..., 2] < 80) & (np.abs(got_lines - got_flat).sum(axis=2) > 60)
     assert 0.002 < red.mean() < 0.2, red.mean()
+
+
+def test_static_pyramid_from_isophote_tiles_shows_the_render(chromium, tmp_path):
+    """`isophote tiles` output on a plain static web server: the viewer opens the .dzi and,
+    at its top level (4x here), shows the render of the view."""
+    import functools
+    import http.server
+
+    from playwright.sync_api import sync_playwright
+
+    from isophote import cli
+
+    png, path = tmp_path / "grad.png", tmp_path / "grad.isoph"
+    write_image(png, synthetic())
+    vi = isophote.encode(read_image(png).pixels)
+    vi.save(path)
+    site = tmp_path / "site"
+    assert cli.main(["tiles", str(path), "-o", str(site), "--max-zoom", "4", "--original", str(png), "-q"]) == 0
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(site))
+    handler.log_message = lambda *a: None
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    try:
+        with sync_playwright() as p:
+            ctx, page = open_viewer(p, chromium, f"http://127.0.0.1:{httpd.server_address[1]}/index.html",
+                                    tmp_path / "profile", size=(360, 200))
+            try:
+                zoom(page, 4, 32, 24)
+                toggles = page.is_visible("#contours-toggle")
+                page.add_style_tag(content=HIDE)
+                page.wait_for_timeout(100)
+                view = visible_view(page)
+                shot = page.locator("#master").screenshot()
+            finally:
+                ctx.close()
+    finally:
+        httpd.shutdown()
+    from PIL import Image
+    import io
+
+    assert not toggles  # one pyramid: no contour or fill layers
+    cw, ch = int(view["cw"]), int(view["ch"])
+    assert abs(view["w"] * 4 - cw) < 1e-6
+    got = np.asarray(Image.open(io.BytesIO(shot)).convert("RGB")).astype(int)[:ch, :cw]
+    want = vi.render(crop=(view["x"], view["y"], view["w"], view["h"]), width=cw, height=ch).astype(int)
+    diff = np.abs(got - want)
+    assert diff.mean() < 1.5 and (diff > 8).mean() < 0.05, (diff.mean(), (diff > 8).mean())

@@ -196,12 +196,16 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
             return _not_found("no original for this image")
         if m.original.lower().endswith(BROWSER_FORMATS):
             return FileResponse(m.original, headers={"Cache-Control": f"public, max-age={MAX_AGE}"})
-        if m.id not in originals:  # TIFF, BMP, ...: once as PNG
+        if m.id not in originals:  # TIFF, BMP, ...: once as PNG, off the event loop
             from ..imageio import read_image
 
-            px = read_image(m.original).pixels
-            originals[m.id] = await asyncio.get_running_loop().run_in_executor(
-                renderer.pool, encode_image, px.round().clip(0, 255).astype("uint8"), "png")
+            def convert():
+                return encode_image(read_image(m.original).pixels.round().clip(0, 255).astype("uint8"), "png")
+
+            try:
+                originals[m.id] = await asyncio.get_running_loop().run_in_executor(renderer.pool, convert)
+            except IsophoteError as e:  # the file changed since the server started
+                return _bad(e)
         return Response(originals[m.id], media_type="image/png")
 
     async def view(request):
