@@ -30,7 +30,7 @@ from starlette.staticfiles import StaticFiles
 from ..errors import IsophoteError
 from . import dzi, iiif
 from .page import BROWSER_FORMATS, STATIC, ZOOM, viewer_page
-from .tiles import FILLS, render_contours, render_tile
+from .tiles import FILLS, render_bytes, render_contours, render_tile
 
 CACHE_BYTES = 256 << 20
 MAX_AGE = 3600
@@ -83,16 +83,33 @@ def _not_found(what: str) -> PlainTextResponse:
     return PlainTextResponse(f"{what}\n", status_code=404)
 
 
+def default_memory() -> int:
+    """Half the machine's physical memory: the renders' budget when none is given."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):
+        return 4 << 30
+
+
 def create_app(masters, workers: int | None = None, queue: int | None = None, cache_bytes: int = CACHE_BYTES,
-               zoom: int = ZOOM) -> Starlette:
-    """The app serving ``masters`` (a list of tiles.Master with distinct ids)."""
+               zoom: int = ZOOM, memory_bytes: int | None = None) -> Starlette:
+    """The app serving ``masters`` (a list of tiles.Master with distinct ids).
+
+    workers : render threads; by default one a usable core, but no more than
+        ``memory_bytes`` (half the physical memory by default) over the largest master's
+        tiles.render_bytes, and at least one.
+    queue : renders admitted at once (running or waiting), 4 x workers by default.
+    """
     from ..imageio import encode_image
 
     dzi.check_zoom(zoom)
     by_id = {m.id: m for m in masters}
     if len(by_id) != len(masters):
         raise ValueError("two masters share an id (file stem)")
-    workers = workers or len(os.sched_getaffinity(0))
+    if workers is None:  # one a core, as many as the memory budget holds (at least one)
+        memory = memory_bytes or default_memory()
+        per_render = max((render_bytes(m) for m in masters), default=1)
+        workers = max(1, min(len(os.sched_getaffinity(0)), memory // per_render))
     renderer = Renderer(workers, queue or 4 * workers, cache_bytes)
     originals: dict = {}
 

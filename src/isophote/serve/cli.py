@@ -24,7 +24,11 @@ def add_parser(subparsers, parents=()) -> None:
     p.add_argument("--port", type=int, default=8000, help="port (default 8000; 0 picks a free one)")
     p.add_argument("--original", metavar="IMAGE",
                    help="the original raster to show beside the master (for a folder: a folder of rasters named by stem)")
-    p.add_argument("--workers", type=int, default=None, help="render threads (default: the usable cores)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="render threads (default: the usable cores, as many as --memory-mb holds)")
+    p.add_argument("--memory-mb", type=int, default=None,
+                   help="memory for renders in MiB (default: half the physical memory); a render of a "
+                   "large master needs its whole canvas's distance grid today (docs/serve.md)")
     p.add_argument("--cache-mb", type=int, default=256, help="tile cache size in MiB (default 256)")
     p.set_defaults(func=run_serve)
 
@@ -79,7 +83,10 @@ def run_serve(args) -> int:
     if len({m.id for m in masters}) != len(masters):
         raise InputError(f"{args.path}: two files share a stem")
     _originals(args.path, masters, args.original)
-    app = create_app(masters, workers=args.workers, cache_bytes=max(1, args.cache_mb) << 20)
+    if args.memory_mb is not None and args.memory_mb < 1:
+        raise OptionError("--memory-mb must be at least 1")
+    app = create_app(masters, workers=args.workers, cache_bytes=max(1, args.cache_mb) << 20,
+                     memory_bytes=None if args.memory_mb is None else args.memory_mb << 20)
     if args.host not in LOOPBACK:
         sys.stderr.write(f"isophote: warning: binding {args.host}: the server has no authentication; "
                          "anyone who can reach this address can read the masters\n")
