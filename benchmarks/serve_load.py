@@ -170,6 +170,8 @@ def main() -> int:
                     help="zooms of the in-process one-tile timings")
     ap.add_argument("--out", default=str(HERE / "results" / "serve_load.md"))
     ap.add_argument("--append", action="store_true", help="add the masters' sections to --out")
+    ap.add_argument("--single-only", action="store_true",
+                    help="only the in-process one-tile timings (for a master whose load pass cannot fit)")
     args = ap.parse_args()
     singles = tuple(float(v) for v in args.single_zooms.split(","))
 
@@ -183,6 +185,21 @@ def main() -> int:
         path, _, original = spec.partition("=")
         m = load_master(path)
         print(f"{m.id}: {m.width}x{m.height}", flush=True)
+        if args.single_only:
+            import resource
+
+            rows = one_tile_each_zoom(m, original or None, singles, warm=False)
+            rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            lines += [f"## {m.id}: {m.width} x {m.height} ({m.width * m.height / 1e6:.1f} MP), one tile at a time", "",
+                      f"One tile at each zoom, in process, one render at a time (peak RSS {rss:.0f} MB), "
+                      "against the peer in the same run (Pillow crop + Lanczos of the original raster):", "",
+                      "| zoom | region | tile px | render s | peer s | ratio |", "|---:|---|---|---:|---:|---:|"]
+            for z, region, size, t, tp in rows:
+                lines.append(f"| {z:g} | {region[2]}x{region[3]} | {size[0]}x{size[1]} | {t:.3f} | {tp:.4f} | "
+                             f"{t / tp:.0f} |")
+            lines.append("")
+            print("\n".join(lines[-12:]), flush=True)
+            continue
         urls = sample_tiles(m, args.tiles)
         port = free_port()
         server = serve(path, port, args.cache_mb)

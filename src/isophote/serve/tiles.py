@@ -85,15 +85,19 @@ def find_masters(path) -> list:
     return [path]
 
 
+RENDER_NODE_BYTES = 200  # peak bytes a node and a channel of one render, as measured
+
+
 def render_bytes(master: Master) -> int:
     """Peak bytes one render_tile of this master may take, whatever the tile: today the
-    distance grid spans the canvas (at most max(NODE_BUDGET, w x h) nodes a channel, at
-    NODE_BYTES a node), and at or below 1x the channels' grids are built at once. A 5.2 MP
-    master: 2.2 GB (measured: 4.4 GB peak RSS with two renders); the 16 MP mosaic: 5.9 GB."""
+    distance grid spans the canvas (at most max(NODE_BUDGET, w x h) nodes a channel) and at
+    or below 1x the channels' grids are built at once. Measured peak RSS, two renders at once:
+    4.4 GB on a 5.2 MP master (about 120 bytes a node and a channel), 18.9 GB on the 16 MP
+    mosaic when the OOM killer stopped it (about 190; render.NODE_BYTES says 120)."""
     from .. import render
 
     nodes = max(getattr(render, "NODE_BUDGET", 6_000_000), master.width * master.height)
-    return nodes * getattr(render, "NODE_BYTES", 120) * len(master.vi.channels) + (64 << 20)
+    return nodes * RENDER_NODE_BYTES * len(master.vi.channels) + (256 << 20)
 
 
 def render_tile(master: Master, region, size, fill: str = "diffusion") -> np.ndarray:
