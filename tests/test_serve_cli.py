@@ -104,3 +104,12 @@ def test_serve_refuses_bad_input(files, tmp_path, capsys):
     ]:
         rc, out, err = _run(capsys, *argv)
         assert rc == 2 and words in err and err.count("\n") == 1, (argv, err)
+
+
+def test_serve_warns_when_one_render_exceeds_the_memory_budget(files, capsys, monkeypatch):
+    import uvicorn
+
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self: None)
+    rc, out, err = _run(capsys, "serve", files[1], "--memory-mb", "1")
+    assert rc == 0 and "a render of grad needs about" in err and "1 at a time" not in err
+    assert err.count("\n") == 1

@@ -110,6 +110,9 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
         memory = memory_bytes or default_memory()
         per_render = max((render_bytes(m) for m in masters), default=1)
         workers = max(1, min(len(os.sched_getaffinity(0)), memory // per_render))
+        over = [(m.id, render_bytes(m)) for m in masters if render_bytes(m) > memory]
+    else:
+        memory, over = None, []
     renderer = Renderer(workers, queue or 4 * workers, cache_bytes)
     originals: dict = {}
 
@@ -260,4 +263,6 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
     ]
     app = Starlette(routes=routes)
     app.state.renderer = renderer
+    app.state.memory = memory
+    app.state.over_budget = over  # (id, bytes a render) of masters one render of which exceeds it
     return app

@@ -87,6 +87,10 @@ def run_serve(args) -> int:
         raise OptionError("--memory-mb must be at least 1")
     app = create_app(masters, workers=args.workers, cache_bytes=max(1, args.cache_mb) << 20,
                      memory_bytes=None if args.memory_mb is None else args.memory_mb << 20)
+    for mid, need in app.state.over_budget:
+        sys.stderr.write(f"isophote: warning: a render of {mid} needs about {need / 2**30:.1f} GiB (its distance "
+                         f"grid spans the canvas), more than the {app.state.memory / 2**30:.1f} GiB budget; "
+                         "renders run one at a time (--memory-mb sets the budget)\n")
     if args.host not in LOOPBACK:
         sys.stderr.write(f"isophote: warning: binding {args.host}: the server has no authentication; "
                          "anyone who can reach this address can read the masters\n")
