@@ -91,6 +91,16 @@ def default_memory() -> int:
         return 4 << 30
 
 
+def pool_size(masters, workers=None, memory_bytes=None):
+    """(workers, memory budget, [(id, bytes) of masters one render of which exceeds it])."""
+    if workers is not None:
+        return workers, None, []
+    memory = memory_bytes or default_memory()
+    per_render = max((render_bytes(m) for m in masters), default=1)
+    workers = max(1, min(len(os.sched_getaffinity(0)), memory // per_render))
+    return workers, memory, [(m.id, render_bytes(m)) for m in masters if render_bytes(m) > memory]
+
+
 def create_app(masters, workers: int | None = None, queue: int | None = None, cache_bytes: int = CACHE_BYTES,
                zoom: int = ZOOM, memory_bytes: int | None = None) -> Starlette:
     """The app serving ``masters`` (a list of tiles.Master with distinct ids).
@@ -106,15 +116,8 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
     by_id = {m.id: m for m in masters}
     if len(by_id) != len(masters):
         raise ValueError("two masters share an id (file stem)")
-    if workers is None:  # one a core, as many as the memory budget holds (at least one)
-        memory = memory_bytes or default_memory()
-        per_render = max((render_bytes(m) for m in masters), default=1)
-        workers = max(1, min(len(os.sched_getaffinity(0)), memory // per_render))
-        over = [(m.id, render_bytes(m)) for m in masters if render_bytes(m) > memory]
-    else:
-        memory, over = None, []
+    workers, memory, over = pool_size(masters, workers, memory_bytes)
     renderer = Renderer(workers, queue or 4 * workers, cache_bytes)
-    originals: dict = {}
 
     def master_of(request):
         return by_id.get(request.path_params["id"])
@@ -210,8 +213,40 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
             return _bad(e)
         return await respond(request, m, "tile", region, size, p["fmt"], fill)
 
+    async def stats(request):
+        c = renderer.cache
+        return JSONResponse({"hits": c.hits, "misses": c.misses, "bytes": c.size, "entries": len(c),
+                             "admitted": renderer.admitted, "workers": workers, "queue": renderer.limit})
+
+    tile_path = "/{id}/{region}/{size}/{rotation}/{qf}"
+    routes = [
+        *page_routes(masters, by_id, zoom, renderer.pool),
+        Route("/iiif/{id}/info.json", info, name="info"),
+        Route("/iiif/{id}", iiif_base, name="iiif_base"),
+        Route("/iiif" + tile_path, tile),
+        Route("/iiif/{id}/{rest:path}", iiif_malformed),
+        Route("/contours" + tile_path, contours),
+        Route("/dzi/{id}.dzi", dzi_descriptor),
+        Route("/dzi/{id}_files/{level:int}/{col:int}_{row:int}.{fmt}", dzi_tile),
+        Route("/stats", stats),
+        Route("/favicon.ico", lambda request: Response(status_code=204)),
+        Mount("/static", StaticFiles(directory=STATIC), name="static"),
+    ]
+    app = Starlette(routes=routes)
+    app.state.renderer = renderer
+    app.state.memory = memory
+    app.state.over_budget = over  # (id, bytes a render) of masters one render of which exceeds it
+    return app
+
+
+def page_routes(masters, by_id, zoom, pool) -> list:
+    """/, /view/{id} and /original/{id}."""
+    from ..imageio import encode_image
+
+    originals: dict = {}
+
     async def original(request):
-        m = master_of(request)
+        m = by_id.get(request.path_params["id"])
         if m is None or m.original is None:
             return _not_found("no original for this image")
         if m.original.lower().endswith(BROWSER_FORMATS):
@@ -223,13 +258,13 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
                 return encode_image(read_image(m.original).pixels.round().clip(0, 255).astype("uint8"), "png")
 
             try:
-                originals[m.id] = await asyncio.get_running_loop().run_in_executor(renderer.pool, convert)
+                originals[m.id] = await asyncio.get_running_loop().run_in_executor(pool, convert)
             except IsophoteError as e:  # the file changed since the server started
                 return _bad(e)
         return Response(originals[m.id], media_type="image/png")
 
     async def view(request):
-        m = master_of(request)
+        m = by_id.get(request.path_params["id"])
         if m is None:
             return _not_found("no such image")
         return HTMLResponse(viewer_page(m, zoom, prefix="/"))
@@ -240,29 +275,4 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
         items = "".join(f'<li><a href="/view/{m.id}">{m.id}</a> {m.width}x{m.height}</li>' for m in masters)
         return HTMLResponse(f"<!doctype html><title>isophote</title><h1>isophote masters</h1><ul>{items}</ul>")
 
-    async def stats(request):
-        c = renderer.cache
-        return JSONResponse({"hits": c.hits, "misses": c.misses, "bytes": c.size, "entries": len(c),
-                             "admitted": renderer.admitted, "workers": workers, "queue": renderer.limit})
-
-    tile_path = "/{id}/{region}/{size}/{rotation}/{qf}"
-    routes = [
-        Route("/", index),
-        Route("/view/{id}", view),
-        Route("/iiif/{id}/info.json", info, name="info"),
-        Route("/iiif/{id}", iiif_base, name="iiif_base"),
-        Route("/iiif" + tile_path, tile),
-        Route("/iiif/{id}/{rest:path}", iiif_malformed),
-        Route("/contours" + tile_path, contours),
-        Route("/dzi/{id}.dzi", dzi_descriptor),
-        Route("/dzi/{id}_files/{level:int}/{col:int}_{row:int}.{fmt}", dzi_tile),
-        Route("/original/{id}", original),
-        Route("/stats", stats),
-        Route("/favicon.ico", lambda request: Response(status_code=204)),
-        Mount("/static", StaticFiles(directory=STATIC), name="static"),
-    ]
-    app = Starlette(routes=routes)
-    app.state.renderer = renderer
-    app.state.memory = memory
-    app.state.over_budget = over  # (id, bytes a render) of masters one render of which exceeds it
-    return app
+    return [Route("/", index), Route("/view/{id}", view), Route("/original/{id}", original)]
