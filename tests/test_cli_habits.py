@@ -317,8 +317,8 @@ def test_rows_of_absent_modules_are_skipped_and_present_ones_load_lazily(tmp_pat
     pkg.mkdir()
     (pkg / "__init__.py").write_text("")
     (pkg / "cli.py").write_text(
-        "def add_parser(subparsers):\n"
-        "    p = subparsers.add_parser('fake', help='a fake command')\n"
+        "def add_parser(subparsers, parents=()):\n"
+        "    p = subparsers.add_parser('fake', parents=list(parents), help='a fake command')\n"
         "    p.add_argument('--n', type=int, default=1, help='a number')\n"
         "def run(args):\n"
         "    print('ran', args.n)\n"

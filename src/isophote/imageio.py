@@ -28,6 +28,7 @@ Writing
 
 from __future__ import annotations
 
+import io
 import logging
 import os
 import stat
@@ -658,3 +659,20 @@ def _atomic_write(path, write) -> None:
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (see :func:`_atomic_write`)."""
     _atomic_write(path, lambda f: f.write(data))
+
+
+def encode_image(pixels: np.ndarray, fmt: str, quality: int = 90) -> bytes:
+    """(H, W) or (H, W, C) uint8 samples (C in 1..4) as PNG or JPEG bytes, in memory (the tile
+    server's responses). PNG is written with zlib level 1: tiles are many and short-lived."""
+    from PIL import Image
+
+    a = np.ascontiguousarray(pixels, dtype=np.uint8)
+    im = Image.fromarray(a[..., 0] if a.ndim == 3 and a.shape[2] == 1 else a)
+    buf = io.BytesIO()
+    if fmt == "png":
+        im.save(buf, format="PNG", compress_level=1)
+    elif fmt == "jpg":
+        im.convert("RGB" if im.mode in ("RGBA", "RGB") else "L").save(buf, format="JPEG", quality=quality)
+    else:
+        raise OptionError(f"cannot encode {fmt!r} (png or jpg)")
+    return buf.getvalue()

@@ -16,7 +16,7 @@ that implements it, the line ``isophote --help`` shows for it, and the module's 
 that add its arguments and run it. A module is imported only when its command is named, so
 ``isophote --help`` imports none of them (nor the encoder, the renderer or numba). A row
 may name a module that is not there yet (a command another part of the package adds): it is
-left out of the parser until the module exists. Such modules expose ``add_parser(subparsers)``
+left out of the parser until the module exists. Such modules expose ``add_parser(subparsers, parents)`` (parents: the common flags)
 (which adds the subcommand and its arguments) and ``run(args) -> int``.
 
 What every command shares (usage errors on one line, progress, output checks, the exit
@@ -46,7 +46,7 @@ class Command:
         names (".render") are this package's.
     arguments : the module's function ``f(parser)`` that adds the command's arguments to
         the parser the table made; None for a module that makes its own parser with
-        ``add_parser(subparsers)``.
+        ``add_parser(subparsers, parents)`` (parents: the common flags).
     run : the module's function ``f(args) -> int``.
     optional : the row is skipped while its module is absent.
     """
@@ -75,9 +75,9 @@ COMMANDS = (
             arguments="add_equalize_arguments", run="run_equalize", aliases=("equalise",)),
     Command("figures", ".figures", "regenerate the paper's figures as PNG panels"),
     Command("svg", ".svg", ".isoph -> SVG / SVGZ (preview + every contour)"),
-    Command("serve", "isophote.serve.cli", "serve .isoph files over HTTP (deep-zoom tiles)",
+    Command("serve", "isophote.serve.cli", "a deep-zoom viewer and IIIF tiles of .isoph masters, over HTTP",
             arguments=None, optional=True),
-    Command("tiles", "isophote.serve.cli", "write a deep-zoom tile pyramid of an .isoph",
+    Command("tiles", "isophote.serve.cli", "a static deep-zoom pyramid (DZI) of an .isoph, with the viewer",
             arguments=None, optional=True),
     Command("batch", "isophote.batch.cli", "encode or render many files at once",
             arguments=None, optional=True),
@@ -124,10 +124,13 @@ def build_parser(command=ALL) -> Parser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     common = common_flags()
+    # a module that makes its own parsers (arguments None) makes all of its commands at once
+    whole = {row.module for row in COMMANDS if row.arguments is None
+             and (command is ALL or command == row.name or command in row.aliases)}
     for row in COMMANDS:
         if row.name in sub.choices or not _present(row):
             continue  # added with its module's other commands, or not there yet
-        if command is ALL or command == row.name or command in row.aliases:
+        if command is ALL or command == row.name or command in row.aliases or row.module in whole:
             _add_command(sub, row, common)
         else:
             sub.add_parser(row.name, aliases=list(row.aliases), help=row.help, add_help=False)
@@ -139,7 +142,7 @@ def _add_command(sub, row: Command, common) -> None:
     run = getattr(module, row.run)
     if row.arguments is None:  # the module makes its parser(s)
         before = set(sub.choices)
-        module.add_parser(sub)
+        module.add_parser(sub, parents=[common])
         for name in set(sub.choices) - before:
             sub.choices[name].set_defaults(_run=run)
         return
