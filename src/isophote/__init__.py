@@ -57,7 +57,17 @@ def equalise(vi, **options) -> VectorImage:
     return _equalise(vi, **options)
 
 
+def __getattr__(name):
+    # isophote.batch (the function and the package, src/isophote/batch/) is imported on
+    # first use: it imports no Dask and starts no pool until called.
+    if name == "batch":
+        from . import batch
+
+        return batch
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
-    "encode", "load", "warp", "equalise", "VectorImage", "Channel", "EncodeOptions", "RenderOptions",
+    "encode", "load", "warp", "equalise", "batch", "VectorImage", "Channel", "EncodeOptions", "RenderOptions",
     "IsophoteError", "InputError", "FormatError", "OptionError", "LimitError",
 ]

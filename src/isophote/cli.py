@@ -370,6 +370,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", metavar="IN.isoph")
     p.add_argument("-o", "--output", required=True, metavar="OUT.svg", help="output .svg or .svgz")
     p.set_defaults(func=cmd_svg)
+
+    from .batch.cli import add_parser as add_batch_parser
+
+    add_batch_parser(sub, parents=[common])
     return parser
 
 
