@@ -61,9 +61,9 @@ def __getattr__(name):
     # isophote.batch (the function and the package, src/isophote/batch/) is imported on
     # first use: it imports no Dask and starts no pool until called.
     if name == "batch":
-        from . import batch
+        import importlib
 
-        return batch
+        return importlib.import_module(".batch", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

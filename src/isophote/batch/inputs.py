@@ -25,8 +25,9 @@ _DIGITS = re.compile(r"(\d+)")
 
 def natural_key(path: str):
     """Sort key: runs of digits compare as numbers, the rest case-insensitively."""
-    parts = _DIGITS.split(os.fspath(path))
-    return [(0, int(p), p) if i % 2 else (1, p.lower(), p) for i, p in enumerate(parts)]
+    path = os.fspath(path)
+    parts = _DIGITS.split(path)
+    return tuple((0, int(p), "") if i % 2 else (1, 0, p.lower()) for i, p in enumerate(parts)), path
 
 
 def _is_image_name(name: str) -> bool:

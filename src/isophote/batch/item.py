@@ -20,8 +20,10 @@ import time
 
 from ..errors import IsophoteError
 
-# Test hook: "STEM:MARKER" makes the worker that starts item STEM kill itself with SIGKILL,
-# once (it creates the file MARKER first; while MARKER exists, nothing happens). The tests
+# Test hook: "STEM:MARKER" in this environment variable of the batch's process (passed to
+# the workers in the job, so any executor's workers see it) makes the worker that starts item STEM kill itself with SIGKILL,
+# once (it creates the file MARKER first; while MARKER exists, nothing happens), or each
+# time when MARKER is "-". The tests
 # use it to check that a killed worker's item is retried and the batch completes.
 KILL_HOOK = "ISOPHOTE_BATCH_TEST_KILL"
 
@@ -36,13 +38,14 @@ def sha256_file(path, chunk: int = 1 << 20) -> str:
             h.update(block)
 
 
-def _kill_hook(stem: str) -> None:
-    spec = os.environ.get(KILL_HOOK)
+def _kill_hook(stem: str, spec) -> None:
     if not spec or ":" not in spec:
         return
     target, marker = spec.split(":", 1)
     if target != stem:
         return
+    if marker == "-":  # every time
+        os.kill(os.getpid(), signal.SIGKILL)
     try:
         fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
     except FileExistsError:
@@ -62,7 +65,7 @@ def process(job: dict) -> dict:
     format), metrics. Returns the item's results: ``status`` "ok" with the master and the
     outputs written, or "failed" with a one-line ``reason`` (bad input, bad options, a
     write that failed). Anything else (a bug) propagates, and the batch records it."""
-    _kill_hook(job["stem"])
+    _kill_hook(job["stem"], job.get("kill"))
     t0 = time.perf_counter()
     try:
         return _process(job, t0)

@@ -1,7 +1,7 @@
 """OUTDIR/manifest.json: what the batch made, and what a rerun may skip.
 
     {"format": "isophote-batch-manifest", "version": 1,
-     "items": {STEM: {"input": PATH, "input_sha256": HEX, "status": "ok" | "failed",
+     "items": {STEM: {"input": PATH, "input_sha256": HEX, "status": "ok" | "failed" | "pending",
                       "reason": "...",                       # failed items only
                       "options": {"encode": {...EncodeOptions fields, resolved...}},
                       "width": W, "height": H,               # the master's
@@ -51,8 +51,17 @@ def load(outdir: str) -> dict:
 
 
 def save(outdir: str, items: dict) -> None:
+    """Write the manifest atomically; not at all when it would not change (a rerun with
+    nothing to do touches no file)."""
     doc = {"format": FORMAT, "version": VERSION, "items": items}
-    atomic_write_bytes(path_of(outdir), (json.dumps(doc, indent=1, allow_nan=False) + "\n").encode())
+    data = (json.dumps(doc, indent=1, allow_nan=False) + "\n").encode()
+    try:
+        with open(path_of(outdir), "rb") as f:
+            if f.read() == data:
+                return
+    except OSError:
+        pass
+    atomic_write_bytes(path_of(outdir), data)
 
 
 def normalised(value):

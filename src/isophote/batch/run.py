@@ -39,7 +39,7 @@ from ..errors import OptionError
 from . import manifest as M
 from .deliveries import DEFAULT_FIT, FITS, parse_deliveries
 from .inputs import expand, stem as stem_of
-from .item import process, sha256_file
+from .item import KILL_HOOK, process, sha256_file
 from .memory import item_budget, memory_allowance
 
 FORMATS = {"png": "png", "tif": "tif", "tiff": "tif", "jpg": "jpg", "jpeg": "jpg", "webp": "webp"}
@@ -162,8 +162,10 @@ def plan(inputs, outdir, deliver, *, preset, encode, format, depth, fit, pad, me
         raise OptionError(f"{outdir}: exists and is not a folder")
     os.makedirs(outdir, exist_ok=True)
     _remove_temporaries(outdir, [s["name"] for s in specs])
-    prior = M.load(outdir)
-    items = {s: r for s, r in prior.items() if isinstance(r, dict)}
+    prior = {s: r for s, r in M.load(outdir).items() if isinstance(r, dict)}
+    # this run's items in input order (pending until done), then an earlier run's others
+    items = {stem_of(p): prior.get(stem_of(p)) or dict(input=p, status="pending") for p in paths}
+    items.update({s: r for s, r in prior.items() if s not in items})
     summary = Summary(items=len(paths), manifest=M.path_of(outdir))
     largest = max(s["width"] * s["height"] for s in specs)
     jobs = []
@@ -181,7 +183,7 @@ def plan(inputs, outdir, deliver, *, preset, encode, format, depth, fit, pad, me
             continue
         size = image_size(path)
         jobs.append(dict(input=path, stem=s, outdir=outdir, sha256=sha, encode=enc, need_master=need_master,
-                         outputs=todo, metrics=bool(metrics),
+                         outputs=todo, metrics=bool(metrics), kill=os.environ.get(KILL_HOOK),
                          budget=item_budget(size[0] * size[1] if size else 0, largest)))
     return jobs, items, summary
 
