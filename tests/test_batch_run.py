@@ -169,3 +169,32 @@ def test_killed_every_time_fails_after_retries(frames, tmp_path, monkeypatch):
     assert s.made == 2 and list(s.failed) == ["frame_5"]
     assert s.failed["frame_5"] == "its worker process died (killed, or out of memory), 2 times"
     assert _manifest(tmp_path / "out")["frame_5"]["attempts"] == 2
+
+
+def test_ctrl_c_stops_cleanly_and_rerun_resumes(frames, tmp_path):
+    inputs = _write_frames(tmp_path / "in", n=8)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "isophote", "batch", str(inputs), "-o", str(out), "--deliver", "phone", "--workers", "1"]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.time() + 120
+    while time.time() < deadline and p.poll() is None:
+        try:
+            if any(r.get("status") == "ok" for r in _manifest(out).values()):
+                break
+        except (OSError, ValueError):
+            pass
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "isophote: batch interrupted; run the same command again to resume"
+    left = [n for _, _, names in os.walk(out) for n in names if n.endswith(".tmp")]
+    assert left == []
+    done = [s for s, r in _manifest(out).items() if r["status"] == "ok"]
+    assert 1 <= len(done) < 8
+    before = _stats(out)
+    s = isophote.batch([str(inputs)], str(out), deliver="phone", workers=1)
+    assert s.up_to_date == len(done) and s.made == 8 - len(done)
+    after = _stats(out)
+    assert all(after[f"{d}.isoph"] == before[f"{d}.isoph"] for d in done)

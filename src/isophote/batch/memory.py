@@ -10,13 +10,15 @@ from __future__ import annotations
 # Today's encoder holds ~700-1250 bytes a source pixel at its peak on textured content
 # (two channels at a time; README's memory paragraph, encoder/__init__.py's
 # PAIR_BYTES_PER_PIXEL for the fit alone); the high end is taken. A render holds its
-# output plus, per channel, the distance fields on the node grid and a few strips: ~80
-# bytes an output pixel at 4x (3840 x 2160 from 1280 x 720 measured at ~0.6 GB; see
-# benchmarks/results/batch.md). A worker process costs ~250 MB before any item (numpy,
-# scipy, numba and the kernels).
+# output, and per channel the distance fields on the node grid and the strips in flight:
+# ~250 bytes an output pixel at 3x. Measured with /usr/bin/time -v on a 1280 x 720 window
+# of the wide corpus's Path.jpg (balanced preset): a process that only loads isophote and
+# the master peaks at 277 MB, the encode at 1429 MB ((1429 - 277) MB / 0.92 MP = 1250 B/px),
+# its UHD (3840 x 2160) render at 2354 MB ((2354 - 277) MB / 8.3 MP = 250 B/px). At UHD the
+# render, not the encode, is an HD frame's peak.
 ENCODE_BYTES_PER_PIXEL = 1250
-RENDER_BYTES_PER_PIXEL = 80
-PROCESS_BYTES = 250 * 2**20
+RENDER_BYTES_PER_PIXEL = 250
+PROCESS_BYTES = 280 * 2**20
 
 
 def item_budget(source_pixels: int, largest_output_pixels: int = 0) -> int:

@@ -267,7 +267,7 @@ def _new_pool(workers, pin):
     from concurrent.futures import ProcessPoolExecutor
 
     ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(["isophote.batch.item", "isophote.encoder", "isophote.render"])
+    ctx.set_forkserver_preload(["isophote.batch.item", "isophote.batch._warm"])
     pinning = (ctx.Value("i", 0), _processors()) if pin and hasattr(os, "sched_setaffinity") else (None, None)
     return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init, initargs=pinning)
 
