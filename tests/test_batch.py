@@ -126,3 +126,19 @@ def test_lazy_api():
             "f = isophote.batch; assert callable(f); import isophote.batch.run; assert callable(isophote.batch); "
             "assert 'distributed' not in sys.modules and 'dask' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_cli_bad_options_are_one_line(tmp_path, capsys):
+    from isophote.cli import main
+
+    _frame(tmp_path / "a.png")
+    cases = [
+        (["--deliver", "vga"], "isophote: unknown delivery 'vga' (use sd, hd, uhd, phone or WxH, e.g. 1280x720)"),
+        (["--format", "jpg", "--depth", "16"], "isophote: JPEG holds 8 bits per channel; use .png or .tif for --depth 16"),
+    ]
+    for extra, message in cases:
+        assert main(["batch", str(tmp_path / "a.png"), "-o", str(tmp_path / "out"), *extra]) == 2
+        assert capsys.readouterr().err.strip().splitlines() == [message]
+    assert main(["batch", str(tmp_path / "nope.png"), "-o", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err.strip() == f"isophote: {tmp_path / 'nope.png'}: no such file or folder"
+    assert not (tmp_path / "out" / "manifest.json").exists()  # nothing is written before the options are good

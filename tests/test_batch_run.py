@@ -198,3 +198,17 @@ def test_ctrl_c_stops_cleanly_and_rerun_resumes(frames, tmp_path):
     assert s.up_to_date == len(done) and s.made == 8 - len(done)
     after = _stats(out)
     assert all(after[f"{d}.isoph"] == before[f"{d}.isoph"] for d in done)
+
+
+def test_memory_limits_concurrent_items(frames, tmp_path, monkeypatch):
+    from isophote.batch import memory
+
+    inputs = [str(frames / f"frame_{k}.png") for k in (0, 5, 10)]
+    # room for one item's budget, not two: two workers run the items one after another
+    budget = memory.item_budget(64 * 48, 384 * 256)
+    monkeypatch.setattr(memory, "memory_allowance", lambda: int(1.5 * budget))
+    s = isophote.batch(inputs, str(tmp_path / "out"), deliver="phone", workers=2)
+    assert s.made == 3
+    spans = sorted((r["started"], r["finished"]) for r in _manifest(tmp_path / "out").values())
+    assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:]))
+    assert budget == memory.PROCESS_BYTES + memory.RENDER_BYTES_PER_PIXEL * 384 * 256

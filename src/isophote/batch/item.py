@@ -66,9 +66,11 @@ def process(job: dict) -> dict:
     outputs written, or "failed" with a one-line ``reason`` (bad input, bad options, a
     write that failed). Anything else (a bug) propagates, and the batch records it."""
     _kill_hook(job["stem"], job.get("kill"))
-    t0 = time.perf_counter()
+    t0, started = time.perf_counter(), time.time()
     try:
-        return _process(job, t0)
+        out = _process(job, t0)
+        out["started"], out["finished"] = round(started, 3), round(time.time(), 3)  # Unix time
+        return out
     except IsophoteError as e:
         return dict(status="failed", reason=" ".join(str(e).split()), seconds=round(time.perf_counter() - t0, 4))
     except MemoryError:

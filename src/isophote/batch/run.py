@@ -40,7 +40,7 @@ from . import manifest as M
 from .deliveries import DEFAULT_FIT, FITS, parse_deliveries
 from .inputs import expand, stem as stem_of
 from .item import KILL_HOOK, process, sha256_file
-from .memory import item_budget, memory_allowance
+from . import memory
 
 FORMATS = {"png": "png", "tif": "tif", "tiff": "tif", "jpg": "jpg", "jpeg": "jpg", "webp": "webp"}
 DEFAULT_DELIVERIES = "sd,hd,uhd,phone"
@@ -184,7 +184,7 @@ def plan(inputs, outdir, deliver, *, preset, encode, format, depth, fit, pad, me
         size = image_size(path)
         jobs.append(dict(input=path, stem=s, outdir=outdir, sha256=sha, encode=enc, need_master=need_master,
                          outputs=todo, metrics=bool(metrics), kill=os.environ.get(KILL_HOOK),
-                         budget=item_budget(size[0] * size[1] if size else 0, largest)))
+                         budget=memory.item_budget(size[0] * size[1] if size else 0, largest)))
     return jobs, items, summary
 
 
@@ -234,7 +234,7 @@ def merge(old, job, result) -> dict:
     rec.pop("reason", None)
     if "input_sha256" in result:
         rec["input_sha256"] = result["input_sha256"]
-    for key in ("width", "height", "master", "metrics"):
+    for key in ("width", "height", "master", "metrics", "started", "finished"):
         if key in result:
             rec[key] = result[key]
     rec["outputs"] = dict(rec.get("outputs") or {}, **result["outputs"])
@@ -274,7 +274,7 @@ def _new_pool(workers, pin):
 
 def _run_pool(jobs, finished, workers, retries, pin) -> None:
     workers = max(1, int(workers or len(_processors())))
-    allowance = memory_allowance()
+    allowance = memory.memory_allowance()
     pending, running = deque(jobs), {}
     pool = _new_pool(workers, pin) if jobs else None
 
