@@ -13,8 +13,8 @@ the same batch runs once per configuration, in one run, each into a fresh folder
     dask2         a distributed.LocalCluster of 2 worker processes, 1 thread each
 
 It reports input megapixels a second, the scaling against pool1, the processor seconds
-the workers used (RUSAGE_CHILDREN; Dask's nannies are children, their workers' time is
-counted once they exit) and their ratio to the wall-clock (the processors in use), and
+the workers spent on the items (each item's cpu_seconds in the manifest) and their ratio
+to the wall-clock (the processors in use), and
 checks that every configuration wrote the same bytes. Results: benchmarks/results/batch.md.
 """
 
@@ -24,7 +24,7 @@ import argparse
 import glob
 import hashlib
 import os
-import resource
+import json
 import sys
 import tempfile
 import time
@@ -56,14 +56,15 @@ def digest(outdir):
     return h.hexdigest()[:16]
 
 
-def children_cpu():
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
+def items_cpu(outdir):
+    """The workers' processor seconds over their items (each item's cpu_seconds)."""
+    items = json.load(open(os.path.join(outdir, "manifest.json")))["items"]
+    return sum(r.get("cpu_seconds", 0.0) for r in items.values())
 
 
 def run_config(name, frames_dir, outdir, deliver, preset):
     kw = dict(deliver=deliver, preset=preset, progress=False)
-    c0, t0 = children_cpu(), time.perf_counter()
+    t0 = time.perf_counter()
     if name.startswith("dask"):
         from distributed import Client, LocalCluster
 
@@ -76,7 +77,7 @@ def run_config(name, frames_dir, outdir, deliver, preset):
         workers = int(name[4:].split("-")[0])
         s = isophote.batch([frames_dir], outdir, workers=workers, pin=name.endswith("pinned"), **kw)
         wall = time.perf_counter() - t0
-    cpu = children_cpu() - c0
+    cpu = items_cpu(outdir)
     if s.failed:
         raise SystemExit(f"{name}: {len(s.failed)} items failed: {s.failed}")
     return dict(name=name, wall=wall, cpu=cpu, mp=s.megapixels, digest=digest(outdir))

@@ -10,7 +10,8 @@
                                              "height", "spec": {name, width, height, fit, pad,
                                                                 depth, format}}},
                       "metrics": {"psnr": DB, "ssimulacra2": SCORE},   # with --metrics
-                      "attempts": N, "seconds": S, "started": T, "finished": T}}}   # Unix time
+                      "attempts": N, "seconds": S, "cpu_seconds": S,    # the worker's
+                      "started": T, "finished": T}}}                     # Unix time
 
 It is rewritten atomically (a temporary file renamed into place) each time an item
 finishes, so a killed batch leaves the last complete manifest. An item's master is fresh

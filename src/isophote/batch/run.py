@@ -234,7 +234,7 @@ def merge(old, job, result) -> dict:
     rec.pop("reason", None)
     if "input_sha256" in result:
         rec["input_sha256"] = result["input_sha256"]
-    for key in ("width", "height", "master", "metrics", "started", "finished"):
+    for key in ("width", "height", "master", "metrics", "started", "finished", "cpu_seconds"):
         if key in result:
             rec[key] = result[key]
     rec["outputs"] = dict(rec.get("outputs") or {}, **result["outputs"])
