@@ -212,3 +212,20 @@ def test_memory_limits_concurrent_items(frames, tmp_path, monkeypatch):
     spans = sorted((r["started"], r["finished"]) for r in _manifest(tmp_path / "out").values())
     assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:]))
     assert budget == memory.PROCESS_BYTES + memory.RENDER_BYTES_PER_PIXEL * 384 * 256
+
+
+def test_metrics_of_the_1x_render(reference, frames, tmp_path):
+    shutil.copytree(reference, tmp_path / "out")  # masters and deliveries are fresh: only the metrics are made
+    before = _stats(tmp_path / "out")
+    s = isophote.batch([str(frames / "frame_0.png")], str(tmp_path / "out"), deliver=DELIVER, pad=(255, 255, 255),
+                       metrics=True, workers=1)
+    assert s.made == 1
+    m = _manifest(tmp_path / "out")["frame_0"]["metrics"]
+    vi = isophote.load(tmp_path / "out" / "frame_0.isoph")
+    from isophote.metrics import psnr
+
+    assert m["psnr"] == pytest.approx(psnr(read_image(frames / "frame_0.png").pixels, vi.render().astype(float)),
+                                      abs=1e-3)
+    assert m["psnr"] > 35 and (m["ssimulacra2"] is None) == ("ssimulacra2_missing" in m)
+    after = _stats(tmp_path / "out")
+    assert all(after[k] == before[k] for k in before if k != "manifest.json")  # no output rewritten
