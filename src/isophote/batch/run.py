@@ -112,14 +112,12 @@ def batch(inputs, outdir, deliver=DEFAULT_DELIVERIES, *, executor=None, workers=
 
     try:
         if executor is None:
-            _run_pool(jobs, finished, workers, retries, pin)
+            folders = sorted({sp["name"] for j in jobs for sp in j["outputs"]})
+            _run_pool(jobs, finished, workers, retries, pin, lambda: _remove_temporaries(outdir, folders))
         else:
             _run_executor(executor, jobs, finished, retries, max_in_flight)
     finally:
         bar.close()
-    for s, rec in items.items():
-        if rec.get("status") == "failed" and s not in summary.failed:
-            summary.failed[s] = rec.get("reason", "failed")
     summary.seconds = time.perf_counter() - t0
     return summary
 
@@ -173,6 +171,7 @@ def plan(inputs, outdir, deliver, *, preset, encode, format, depth, fit, pad, me
         s = stem_of(path)
         if isinstance(sha, Exception):
             items[s] = dict(input=path, status="failed", reason=f"{path}: {getattr(sha, 'strerror', None) or sha}")
+            summary.failed[s] = items[s]["reason"]
             continue
         rec = items.get(s) if (items.get(s) or {}).get("input") == path else None
         need_master = not M.master_fresh(outdir, rec, sha, enc)
@@ -272,7 +271,9 @@ def _new_pool(workers, pin):
     return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init, initargs=pinning)
 
 
-def _run_pool(jobs, finished, workers, retries, pin) -> None:
+def _run_pool(jobs, finished, workers, retries, pin, cleanup) -> None:
+    """Run ``jobs`` on our own pool. ``cleanup()`` removes the temporary files of writes the
+    pool's end cut short: a broken pool's survivors are terminated mid-item too."""
     workers = max(1, int(workers or len(_processors())))
     allowance = memory.memory_allowance()
     pending, running = deque(jobs), {}
@@ -288,35 +289,43 @@ def _run_pool(jobs, finished, workers, retries, pin) -> None:
         used = sum(j["budget"] for j in running.values())
         return allowance is None or used + job["budget"] <= allowance
 
+    lost = "its worker process died (killed, or out of memory)"
     try:
         while pending or running:
-            while pending and admissible(pending[0]):
-                job = pending.popleft()
-                running[pool.submit(process, job)] = job
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
             broken = False
-            for fut in done:
-                job = running.pop(fut)
+            while pending and admissible(pending[0]):
                 try:
-                    finished(job, fut.result())
-                except BrokenProcessPool:
+                    fut = pool.submit(process, pending[0])
+                except BrokenProcessPool:  # it broke since the last wait: nothing was submitted
                     broken = True
-                    _retry(job, pending, finished, retries, "its worker process died (killed, or out of memory)")
-                except Exception as e:  # noqa: BLE001 - a bug in one item must not stop the batch
-                    finished(job, _internal(e))
+                    break
+                running[fut] = pending.popleft()
+            if not broken:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    job = running.pop(fut)
+                    try:
+                        finished(job, fut.result())
+                    except BrokenProcessPool:
+                        broken = True
+                        _retry(job, pending, finished, retries, lost)
+                    except Exception as e:  # noqa: BLE001 - a bug in one item must not stop the batch
+                        finished(job, _internal(e))
             if broken:  # every item still running was lost with the pool (but those just done)
                 for fut, job in running.items():
                     if fut.done() and not fut.cancelled() and fut.exception() is None:
                         finished(job, fut.result())
                     else:
-                        _retry(job, pending, finished, retries, "its worker process died (killed, or out of memory)")
+                        _retry(job, pending, finished, retries, lost)
                 running.clear()
                 pool.shutdown(wait=True, cancel_futures=True)
+                cleanup()  # no worker is running now
                 pool = _new_pool(workers, pin)
     except BaseException:
         if pool is not None:
             _terminate(pool)
             pool = None
+            cleanup()
         raise
     finally:
         if pool is not None:
