@@ -68,7 +68,17 @@ def equalise(vi, **options) -> VectorImage:
     return _equalise(vi, **options)
 
 
+def __getattr__(name):
+    # isophote.batch (the function and the package, src/isophote/batch/) is imported on
+    # first use: it imports no Dask and starts no pool until called.
+    if name == "batch":
+        import importlib
+
+        return importlib.import_module(".batch", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
-    "encode", "load", "warp", "equalise", "VectorImage", "Channel", "EncodeOptions", "RenderOptions",
+    "encode", "load", "warp", "equalise", "batch", "VectorImage", "Channel", "EncodeOptions", "RenderOptions",
     "IsophoteError", "InputError", "FormatError", "OptionError", "LimitError",
 ]

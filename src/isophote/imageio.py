@@ -148,6 +148,20 @@ def _kept_profile(pixels, profile):
     return pixels, profile, ""
 
 
+def image_size(path) -> tuple[int, int] | None:
+    """(width, height) from the file's header, without decoding pixels; None when the file
+    cannot be opened as an image (read_image gives the reason)."""
+    from PIL import Image
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with Image.open(os.fspath(path), formats=_read_formats()) as im:
+                return im.size
+    except Exception:  # noqa: BLE001 - any failure here is read_image's to report
+        return None
+
+
 def _is_empty(name) -> bool:
     try:
         return os.path.getsize(name) == 0
