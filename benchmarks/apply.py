@@ -79,6 +79,13 @@ def encoded(name, img):
     return _ENCODED[name]
 
 
+def _cells(rows, methods, bold: bool = False) -> str:
+    """PSNR | SSIMULACRA2 cells of each method: the mean over ``rows`` (one row: its values),
+    in bold for a mean row."""
+    b = "**" if bold else ""
+    return " | ".join(f"{b}{_mean(rows, m + '_psnr'):.2f}{b} | {b}{_mean(rows, m + '_s2'):.1f}{b}" for m in methods)
+
+
 def _mean(rows, key):
     return float(np.mean([r[key] for r in rows]))
 
@@ -121,14 +128,11 @@ def table_scale(rows):
     out = ["| x | image | small | " + " | ".join(f"{m} PSNR | {m} S2" for m in methods) + " | encode s | render s |",
            "|---|---|---|" + "---|---|" * len(methods) + "---|---|"]
     for r in rows:
-        out.append(f"| {r['factor']} | {r['image']} | {r['size']} | "
-                   + " | ".join(f"{r[m + '_psnr']:.2f} | {r[m + '_s2']:.1f}" for m in methods)
-                   + f" | {r['encode_s']:.1f} | {r['render_s']:.2f} |")
+        out.append(f"| {r['factor']} | {r['image']} | {r['size']} | {_cells([r], methods)}"
+                   f" | {r['encode_s']:.1f} | {r['render_s']:.2f} |")
     for factor in sorted({r["factor"] for r in rows}):
         sub = [r for r in rows if r["factor"] == factor]
-        out.append(f"| {factor} | **mean** | | "
-                   + " | ".join(f"**{_mean(sub, m + '_psnr'):.2f}** | **{_mean(sub, m + '_s2'):.1f}**"
-                                for m in methods) + " | | |")
+        out.append(f"| {factor} | **mean** | | {_cells(sub, methods, bold=True)} | | |")
     return out
 
 
@@ -243,13 +247,10 @@ def table_warp(rows, methods):
     out = ["| image | warp | " + " | ".join(f"{m} PSNR | {m} S2" for m in methods) + " |",
            "|---|---|" + "---|---|" * len(methods)]
     for r in rows:
-        out.append(f"| {r['image']} | {r['case']} | "
-                   + " | ".join(f"{r[m + '_psnr']:.2f} | {r[m + '_s2']:.1f}" for m in methods) + " |")
+        out.append(f"| {r['image']} | {r['case']} | {_cells([r], methods)} |")
     for case in dict.fromkeys(r["case"] for r in rows):
         sub = [r for r in rows if r["case"] == case]
-        out.append(f"| **mean** | {case} | "
-                   + " | ".join(f"**{_mean(sub, m + '_psnr'):.2f}** | **{_mean(sub, m + '_s2'):.1f}**"
-                                for m in methods) + " |")
+        out.append(f"| **mean** | {case} | {_cells(sub, methods, bold=True)} |")
     return out
 
 

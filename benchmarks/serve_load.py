@@ -158,6 +158,15 @@ def pct(a, q) -> float:
     return float(np.percentile(a, q)) * 1000
 
 
+def single_tiles(rows, title: str) -> list:
+    """The table of one_tile_each_zoom's rows, headed by ``title``."""
+    lines = [f"{title}, against the peer in the same run (Pillow crop + Lanczos of the original raster):", "",
+             "| zoom | region | tile px | render s | peer s | ratio |", "|---:|---|---|---:|---:|---:|"]
+    for z, region, size, t, tp in rows:
+        lines.append(f"| {z:g} | {region[2]}x{region[3]} | {size[0]}x{size[1]} | {t:.3f} | {tp:.4f} | {t / tp:.0f} |")
+    return lines + [""]
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("masters", nargs="+", metavar="MASTER.isoph[=ORIGINAL]")
@@ -190,14 +199,8 @@ def main() -> int:
 
             rows = one_tile_each_zoom(m, original or None, singles, warm=False)
             rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-            lines += [f"## {m.id}: {m.width} x {m.height} ({m.width * m.height / 1e6:.1f} MP), one tile at a time", "",
-                      f"One tile at each zoom, in process, one render at a time (peak RSS {rss:.0f} MB), "
-                      "against the peer in the same run (Pillow crop + Lanczos of the original raster):", "",
-                      "| zoom | region | tile px | render s | peer s | ratio |", "|---:|---|---|---:|---:|---:|"]
-            for z, region, size, t, tp in rows:
-                lines.append(f"| {z:g} | {region[2]}x{region[3]} | {size[0]}x{size[1]} | {t:.3f} | {tp:.4f} | "
-                             f"{t / tp:.0f} |")
-            lines.append("")
+            lines += [f"## {m.id}: {m.width} x {m.height} ({m.width * m.height / 1e6:.1f} MP), one tile at a time", ""]
+            lines += single_tiles(rows, f"One tile at each zoom, in process, one render at a time (peak RSS {rss:.0f} MB)")
             print("\n".join(lines[-12:]), flush=True)
             continue
         urls = sample_tiles(m, args.tiles)
@@ -233,13 +236,7 @@ def main() -> int:
             if len(sel):
                 lines.append(f"- {z:g}x: {pct(sel, 50):.0f} / {pct(sel, 95):.0f} ({len(sel)} tiles)")
         rows = one_tile_each_zoom(m, original or None, singles, warm=args.warm_ups > 1)
-        lines += ["", "One tile at each zoom, in process (s), against the peer in the same run "
-                  "(Pillow crop + Lanczos of the original raster):", "",
-                  "| zoom | region | tile px | render s | peer s | ratio |", "|---:|---|---|---:|---:|---:|"]
-        for z, region, size, t, tp in rows:
-            lines.append(f"| {z:g} | {region[2]}x{region[3]} | {size[0]}x{size[1]} | {t:.3f} | {tp:.4f} | "
-                         f"{t / tp:.0f} |")
-        lines.append("")
+        lines += [""] + single_tiles(rows, "One tile at each zoom, in process (s)")
         print("\n".join(lines[-30:]), flush=True)
     if args.append:
         lines = lines[lines.index("") + 1:]  # the sections only

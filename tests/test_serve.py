@@ -31,13 +31,17 @@ def synthetic():
     return np.stack([30 + 190 * x / (W - 1), 220 - 170 * y / (H - 1), 60 + 150 * disc], axis=2)
 
 
-@pytest.fixture(scope="module")
-def master_files(tmp_path_factory):
-    d = tmp_path_factory.mktemp("serve")
+def synthetic_master(d):
+    """The synthetic image as d/grad.png and its master d/grad.isoph."""
     png, path = d / "grad.png", d / "grad.isoph"
     write_image(png, synthetic())
     isophote.encode(read_image(png).pixels).save(path)
     return png, path
+
+
+@pytest.fixture(scope="module")
+def master_files(tmp_path_factory):
+    return synthetic_master(tmp_path_factory.mktemp("serve"))
 
 
 @pytest.fixture(scope="module")

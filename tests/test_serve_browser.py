@@ -81,6 +81,13 @@ class Server:
         self.thread.join(10)
 
 
+def still_view(page):
+    """The master pane's view and its screenshot, with the controls hidden."""
+    page.add_style_tag(content=HIDE)
+    page.wait_for_timeout(100)
+    return visible_view(page), page.locator("#master").screenshot()
+
+
 def visible_view(page):
     """The source rectangle the master pane shows, and the pane's size in CSS pixels."""
     return page.evaluate("""() => {
@@ -123,10 +130,7 @@ def test_viewer_at_16x_shows_the_render_of_that_view(chromium, tmp_path):
         try:
             zoom(page, 16, 32, 24)
             readout = page.inner_text("#readout")
-            page.add_style_tag(content=HIDE)
-            page.wait_for_timeout(100)
-            view = visible_view(page)
-            shot = page.locator("#master").screenshot()
+            view, shot = still_view(page)
             original_shown = page.evaluate("window.isophote.original.world.getItemAt(0).getFullyLoaded()")
             synced = page.evaluate("""() => { const a = window.isophote.master.viewport, b = window.isophote.original.viewport;
                 return [a.getZoom(true) / b.getZoom(true), a.getCenter(true).x - b.getCenter(true).x]; }""")
@@ -205,10 +209,7 @@ def test_static_pyramid_from_isophote_tiles_shows_the_render(chromium, tmp_path)
             try:
                 zoom(page, 4, 32, 24)
                 toggles = page.is_visible("#contours-toggle")
-                page.add_style_tag(content=HIDE)
-                page.wait_for_timeout(100)
-                view = visible_view(page)
-                shot = page.locator("#master").screenshot()
+                view, shot = still_view(page)
             finally:
                 ctx.close()
     finally:

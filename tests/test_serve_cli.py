@@ -16,16 +16,12 @@ from isophote.imageio import read_image, write_image  # noqa: E402
 from isophote.serve import dzi, tiles  # noqa: E402
 from isophote.serve.app import create_app  # noqa: E402
 
-from test_serve import synthetic  # noqa: E402
+from test_serve import synthetic_master  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    d = tmp_path_factory.mktemp("serve_cli")
-    png, path = d / "grad.png", d / "grad.isoph"
-    write_image(png, synthetic())
-    isophote.encode(read_image(png).pixels).save(path)
-    return png, path
+    return synthetic_master(tmp_path_factory.mktemp("serve_cli"))
 
 
 def decode(data: bytes) -> np.ndarray:

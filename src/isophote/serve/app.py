@@ -149,30 +149,27 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
             return _bad(e)
         return Response(data, media_type=iiif.FORMATS[fmt], headers=headers)
 
-    async def tile(request):
+    async def iiif_layer(request, kind: str):
+        """A IIIF request for the rendered tile ("tile") or the Y contours over
+        transparency ("contours", png only)."""
         m = master_of(request)
         if m is None:
             return _not_found("no such image")
         p = request.path_params
         try:
             req = iiif.parse_request(p["region"], p["size"], p["rotation"], p["qf"], m.width, m.height)
-            fill = fill_of(request)
+            if kind == "contours" and req.format != "png":
+                raise iiif.RequestError("contours are served as png only")
+            fill = fill_of(request) if kind == "tile" else ""
         except iiif.RequestError as e:
             return _bad(e)
-        return await respond(request, m, "tile", req.region, req.size, req.format, fill)
+        return await respond(request, m, kind, req.region, req.size, req.format, fill)
+
+    async def tile(request):
+        return await iiif_layer(request, "tile")
 
     async def contours(request):
-        m = master_of(request)
-        if m is None:
-            return _not_found("no such image")
-        p = request.path_params
-        try:
-            req = iiif.parse_request(p["region"], p["size"], p["rotation"], p["qf"], m.width, m.height)
-            if req.format != "png":
-                raise iiif.RequestError("contours are served as png only")
-        except iiif.RequestError as e:
-            return _bad(e)
-        return await respond(request, m, "contours", req.region, req.size, "png", "")
+        return await iiif_layer(request, "contours")
 
     async def info(request):
         m = master_of(request)
