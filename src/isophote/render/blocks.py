@@ -1,0 +1,194 @@
+"""Node fields in canvas-aligned blocks: a render whose cost follows its output.
+
+A level is the node grid of one channel at one output scale: r nodes per source pixel
+(levels.py). On a small level (at most SINGLE_NODES nodes) the fields are computed over the
+whole level at once, as they always were. On a larger one the level is cut into square
+blocks of ``block`` nodes, aligned on the level's origin (so the cut depends on the canvas
+and the scale only, never on the crop or the strips), and each block's fields are computed
+on a window of the block plus ``margin`` nodes on every side, from the edges that reach the
+window only. A target sample reads the fields of the block its position falls in. Every crop
+of a render therefore computes exactly the blocks it touches, with the same windows, and is
+the same region of the full render; a render touches only the blocks under its samples.
+
+What is global stays global, computed once per level by a canvas-wide pass that needs only
+the bands (``CanvasRegions``: 6 bytes a node while it runs, 4 kept): which node region each
+node belongs to, and each region's cap value (a cap's annotation may lie far outside the
+window). Two things are taken within the window instead of the whole region:
+- the distances: a node finds sources within its window only, so a node farther than the
+  margin from every source of a side (the middle of a band wider than twice the margin) may
+  find a farther one, or none, where the whole-canvas sweep found one;
+- a cap's d_max, its largest distance from the contour: it matters only for caps narrower
+  than the cap ramp (2 source pixels by default), which fit in a window unless they are long
+  and thin and cross a block border; domes (an infinite ramp) use it everywhere.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._kernels.diffuse import band_widths, evaluate, label_nodes, offsets, propagate, region_caps, seed
+from ._kernels.raster import rasterise
+from ._kernels.regions import cap_values, local_cap_values
+from ._kernels.sharpen import correction
+from .distance import MAX_SWEEPS, MODES, NodeField
+
+SINGLE_NODES = 2_500_000  # a level this small is one window (every corpus photograph up to 3x)
+BLOCK = 256  # nodes a side of a block at or below 1x; smaller above (block_size)
+MARGIN = 32  # nodes of window around a block
+WINDOW_BYTES = 72  # bytes a node of a kept window (fields 48, band, labels, fill, widths)
+WINDOW_PEAK_BYTES = 120  # while it is computed (crossings), as distance.NODE_BYTES
+
+
+def block_size(zoom_per_node: float) -> int:
+    """Nodes a side of a block: BLOCK at or below one output pixel a node, smaller above (a
+    deep-zoom tile covers fewer nodes: 8 output pixels a node give 64)."""
+    b = BLOCK
+    while b > 64 and zoom_per_node * b > 2 * BLOCK:
+        b //= 2
+    return b
+
+
+@dataclass(frozen=True)
+class Level:
+    r: float  # nodes per source pixel
+    nr: int
+    nc: int
+    block: int  # nodes a side; 0: one window over the level
+
+    @property
+    def nodes(self) -> int:
+        return self.nr * self.nc
+
+    def blocks(self) -> tuple[int, int]:
+        if not self.block:
+            return 1, 1
+        return -(-self.nr // self.block), -(-self.nc // self.block)
+
+    def window(self, bi: int, bj: int) -> tuple[int, int, int, int]:
+        """(i0, j0, n, m): the window of block (bi, bj), clipped to the level."""
+        if not self.block:
+            return 0, 0, self.nr, self.nc
+        B = self.block
+        i0, j0 = max(bi * B - MARGIN, 0), max(bj * B - MARGIN, 0)
+        i1, j1 = min((bi + 1) * B + MARGIN, self.nr), min((bj + 1) * B + MARGIN, self.nc)
+        return i0, j0, i1 - i0, j1 - j0
+
+
+def make_level(vi, r: float, zoom: float) -> Level:
+    nr, nc = int(np.ceil(vi.height * r - 1e-9)), int(np.ceil(vi.width * r - 1e-9))
+    block = 0 if nr * nc <= SINGLE_NODES else block_size(zoom / r)
+    return Level(r, nr, nc, block)
+
+
+class Buckets:
+    """Indices of edges by the bands of ``size`` nodes their extent [lo, hi] reaches (widened
+    by a node), in their original order within each band."""
+
+    def __init__(self, lo, hi, size: int, n: int):
+        first = np.clip(np.floor((lo - 1.0) / size), 0, n - 1).astype(np.int64)
+        last = np.clip(np.floor((hi + 1.0) / size), 0, n - 1).astype(np.int64)
+        count = np.maximum(last - first + 1, 0)
+        edge = np.repeat(np.arange(len(lo)), count)
+        bucket = np.repeat(first - np.cumsum(count) + count, count) + np.arange(len(edge))
+        order = np.argsort(bucket, kind="stable")
+        self.index = edge[order]
+        self.starts = np.searchsorted(bucket[order], np.arange(n + 1))
+        self.n = n
+
+    def of(self, b0: int, b1: int) -> np.ndarray:
+        """Edges reaching buckets b0..b1 (inclusive), each once, in original order."""
+        b0, b1 = max(b0, 0), min(b1, self.n - 1)
+        return np.unique(self.index[self.starts[b0]:self.starts[b1 + 1]])
+
+
+class ChannelLevel:
+    """One channel at one level: its edges in node units, indexed by block rows and columns,
+    and the canvas-wide regions (blocked levels only)."""
+
+    def __init__(self, vi, ch, edges, level: Level):
+        self.ch, self.level, self.edges = ch, level, edges
+        x0, y0, x1, y1, src = edges
+        r = level.r
+        self.nx0, self.ny0, self.nx1, self.ny1, self.src = x0 * r, y0 * r, x1 * r, y1 * r, src
+        self.glabels = self.gcapv = None
+        if level.block:
+            nbr, nbc = level.blocks()
+            self.rows = Buckets(np.minimum(self.ny0, self.ny1), np.maximum(self.ny0, self.ny1), level.block, nbr)
+            self.cols = Buckets(np.minimum(self.nx0, self.nx1), np.maximum(self.nx0, self.nx1), level.block, nbc)
+            self._regions()
+
+    def _regions(self):
+        lv, ch = self.level, self.ch
+        band, *_ = rasterise(self.nx0, self.ny0, self.nx1, self.ny1, self.src, 0, 0, lv.nr, lv.nc, False)
+        band += np.int16(ch.base_band)
+        labels, m = label_nodes(band)
+        r = lv.r
+        self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
+                                ch.cap_band.astype(np.int64), ch.cap_value)
+        self.glabels = labels
+
+    def field(self, bi: int, bj: int, distance: str, smooth: bool, sharpen) -> NodeField:
+        """The fields of block (bi, bj) on its window (the whole level when not blocked), in
+        window node coordinates; NodeField.origin gives the window's first node."""
+        lv, ch = self.level, self.ch
+        i0, j0, n, m = lv.window(bi, bj)
+        if lv.block:
+            B, M = lv.block, MARGIN
+            rows = self.rows.of((i0) // B, (i0 + n - 1) // B)
+            cols = self.cols.of((j0) // B, (j0 + m - 1) // B)
+            del M
+        else:
+            rows = cols = slice(None)
+        hx0, hy0, hx1, hy1 = self.nx0[rows] - j0, self.ny0[rows] - i0, self.nx1[rows] - j0, self.ny1[rows] - i0
+        vx0, vy0, vx1, vy1 = self.nx0[cols] - j0, self.ny0[cols] - i0, self.nx1[cols] - j0, self.ny1[cols] - i0
+        band, *h = rasterise(hx0, hy0, hx1, hy1, self.src[rows], 0, 0, n, m, True)
+        band += np.int16(ch.base_band)
+        _, *v = rasterise(vy0, vx0, vy1, vx1, self.src[cols], 0, 0, m, n, True, True)
+        mode = MODES[distance]
+        F = seed(band, tuple(h), tuple(v), ch.levels, mode)
+        del h, v
+        propagate(F, band, offsets(mode), mode, MAX_SWEEPS)
+        labels, nreg = label_nodes(band)
+        r = lv.r
+        if lv.block:
+            none = np.zeros(0)
+            dmax, _ = region_caps(F, band, labels, nreg, none, none, np.zeros(0, np.int64), none)
+            capv = local_cap_values(labels, nreg, self.glabels[i0:i0 + n, j0:j0 + m], self.gcapv)
+        else:
+            dmax, capv = region_caps(F, band, labels, nreg, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
+                                     ch.cap_band.astype(np.int64), ch.cap_value)
+        ramp = float(ch.cap_ramp) * r
+        bw = band_widths(F, band, labels, dmax, capv, ramp) if smooth else np.zeros((0, 0, 2), np.float32)
+        nv = np.empty((n, m), np.float32)
+        evaluate(F, band, labels, dmax, capv, ramp, band, np.arange(m) + 0.5, np.arange(n) + 0.5,
+                 ch.levels, mode, False, np.empty((0, 0), np.float32), nv, smooth, bw, np.empty((0, 0), np.float32))
+        if max(sharpen) > 0.0:
+            corr, nv = correction(nv, int(round(r)), float(sharpen[0]), float(sharpen[1]))
+        else:
+            corr = np.zeros((0, 0), np.float32)
+        nf = NodeField(F, band, ch.levels, r, mode, self.edges, ch.base_band, labels, dmax, capv, nv, smooth, bw,
+                       ramp, corr)
+        nf.origin = (i0, j0)
+        return nf
+
+
+def split(pos: np.ndarray, block: int, nb: int) -> list[tuple[int, int, int]]:
+    """Runs of consecutive sample positions (node units, increasing) by the block they fall
+    in: [(block index, first, stop)]."""
+    if not block:
+        return [(0, 0, len(pos))]
+    b = np.clip(np.floor(pos / block), 0, nb - 1).astype(np.int64)
+    cuts = np.flatnonzero(np.diff(b)) + 1
+    starts = np.concatenate([[0], cuts])
+    stops = np.concatenate([cuts, [len(pos)]])
+    return [(int(b[a]), int(a), int(z)) for a, z in zip(starts, stops)]
+
+
+def evaluate_piece(nf, tband, xs, ys, flat, out):
+    """The fill of the samples tband (n, m) at node positions xs, ys (level coordinates)
+    from one window's fields, into out (n, m)."""
+    i0, j0 = nf.origin
+    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, nf.ramp, tband, xs - j0, ys - i0, nf.levels, nf.mode, flat,
+             nf.nv, out, nf.smooth, nf.bw, nf.corr)
