@@ -25,7 +25,7 @@ from ..colour import YUV_TO_RGB, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
-from ..geometry import flatten, segments
+from ..geometry import segments
 from .blocks import ChannelLevel, make_level, split
 from .levels import auto_supersample, reduction_r
 from .prepare import prepared
@@ -156,7 +156,7 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
                     for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
                         last[bi] = r1
             del cuts_ch
-            return cache, SampleEdges(cl.edges, vp, vp.out_h * vp.s), xs, ys, last
+            return cache, SampleEdges(cl, vp, vp.out_h * vp.s), xs, ys, last
 
         ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
 
@@ -190,23 +190,19 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
         r = float(node_resolution(vi.width, vi.height, z, chroma=ch.name in ("U", "V")))
     else:
         r = reduction_r(z)
-    level = make_level(vi, r, z)
+    level = make_level(vi, r, z, len(ch.border))
     if plan_only:
         return level, None
     tol = 0.05 / max(r, vp.kx, vp.ky)  # flatten finely enough for both the nodes and the samples
     gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
     smooth = opts.fill != "linear"
 
-    def make_edges():
-        segs, border = segments(ch)
-        return flatten(segs, border, tol)
-
     def make_level_state():
-        edges = prep.get(prep.edges, (ch.name, tol), make_edges) if prep is not None else make_edges()
+        segs, border = prep.get(prep.edges, ch.name, lambda: segments(ch)) if prep is not None else segments(ch)
         if level.block:
             with _REGIONS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
-                return ChannelLevel(vi, ch, edges, level)
-        return ChannelLevel(vi, ch, edges, level)
+                return ChannelLevel(vi, ch, segs, border, tol, level)
+        return ChannelLevel(vi, ch, segs, border, tol, level)
 
     if prep is None:
         cl = make_level_state()

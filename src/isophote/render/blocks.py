@@ -32,6 +32,7 @@ from ._kernels.diffuse import band_widths, evaluate, label_nodes, offsets, propa
 from ._kernels.raster import rasterise
 from ._kernels.regions import cap_values, local_cap_values
 from ._kernels.sharpen import correction
+from ..geometry import flatten
 from .distance import MAX_SWEEPS, MODES, NodeField
 
 SINGLE_NODES = 2_500_000  # a level this small is one window (every corpus photograph up to 3x)
@@ -76,9 +77,14 @@ class Level:
         return i0, j0, i1 - i0, j1 - j0
 
 
-def make_level(vi, r: float, zoom: float) -> Level:
+SINGLE_SEGMENTS = 600_000  # a channel with more segments is flattened a window at a time
+
+
+def make_level(vi, r: float, zoom: float, n_segments: int = 0) -> Level:
+    """The level at r nodes a source pixel: one window when small, else blocks."""
     nr, nc = int(np.ceil(vi.height * r - 1e-9)), int(np.ceil(vi.width * r - 1e-9))
-    block = 0 if nr * nc <= SINGLE_NODES else block_size(zoom / r)
+    small = nr * nc <= SINGLE_NODES and n_segments <= SINGLE_SEGMENTS
+    block = 0 if small else block_size(zoom / r)
     return Level(r, nr, nc, block)
 
 
@@ -100,31 +106,58 @@ class Buckets:
     def of(self, b0: int, b1: int) -> np.ndarray:
         """Edges reaching buckets b0..b1 (inclusive), each once, in original order."""
         b0, b1 = max(b0, 0), min(b1, self.n - 1)
-        return np.unique(self.index[self.starts[b0]:self.starts[b1 + 1]])
+        idx = self.index[self.starts[b0]:self.starts[b1 + 1]]
+        if b0 == b1 or len(idx) == 0:
+            return idx  # one bucket: ascending already
+        lo = int(idx.min())
+        mark = np.zeros(int(idx.max()) - lo + 1, np.bool_)
+        mark[idx - lo] = True
+        return np.flatnonzero(mark) + lo
 
 
 class ChannelLevel:
-    """One channel at one level: its edges in node units, indexed by block rows and columns,
-    and the canvas-wide regions (blocked levels only)."""
+    """One channel at one level: its segments, flattened (at ``tol``) a window at a time
+    from an index of their bounding boxes by block rows and columns (all at once on a
+    one-window level), and the canvas-wide regions (blocked levels only). A segment's edges
+    do not depend on which others are flattened with it, nor a window's bands and crossings
+    on the edges that miss it."""
 
-    def __init__(self, vi, ch, edges, level: Level):
-        self.ch, self.level, self.edges = ch, level, edges
-        x0, y0, x1, y1, src = edges
-        r = level.r
-        self.nx0, self.ny0, self.nx1, self.ny1, self.src = x0 * r, y0 * r, x1 * r, y1 * r, src
+    def __init__(self, vi, ch, segs, border, tol: float, level: Level):
+        self.ch, self.level, self.tol = ch, level, tol
+        self.segs, self.border = segs, border
         self.glabels = self.gcapv = None
-        if level.block:
-            nbr, nbc = level.blocks()
-            self.rows = Buckets(np.minimum(self.ny0, self.ny1), np.maximum(self.ny0, self.ny1), level.block, nbr)
-            self.cols = Buckets(np.minimum(self.nx0, self.nx1), np.maximum(self.nx0, self.nx1), level.block, nbc)
-            self._regions()
+        self.edges = None
+        if not level.block:
+            self.edges = flatten(segs, border, tol)
+            return
+        r = level.r
+        nbr, nbc = level.blocks()
+        xs, ys = segs[:, :, 0], segs[:, :, 1]
+        self.rows = Buckets(ys.min(axis=1) * r, ys.max(axis=1) * r, level.block, nbr)
+        self.cols = Buckets(xs.min(axis=1) * r, xs.max(axis=1) * r, level.block, nbc)
+        self._regions()
+
+    def edges_of(self, idx):
+        """Edges of the segments idx (ascending), in source pixels."""
+        if idx is None:
+            return self.edges
+        return flatten(self.segs[idx], self.border[idx], self.tol)
+
+    def row_segments(self, b0: int, b1: int):
+        """Segments reaching block rows b0..b1 (None: all, on a one-window level)."""
+        return self.rows.of(b0, b1) if self.level.block else None
 
     def _regions(self):
+        """Bands of the whole level, a block row at a time, then their regions and cap values."""
         lv, ch = self.level, self.ch
-        band, *_ = rasterise(self.nx0, self.ny0, self.nx1, self.ny1, self.src, 0, 0, lv.nr, lv.nc, False)
+        r, B = lv.r, lv.block
+        band = np.empty((lv.nr, lv.nc), np.int16)
+        for bi in range(lv.blocks()[0]):
+            x0, y0, x1, y1, src = self.edges_of(self.rows.of(bi, bi))
+            i0, n = bi * B, min(B, lv.nr - bi * B)
+            band[i0:i0 + n], *_ = rasterise(x0 * r, y0 * r - i0, x1 * r, y1 * r - i0, src, 0, 0, n, lv.nc, False)
         band += np.int16(ch.base_band)
         labels, m = label_nodes(band)
-        r = lv.r
         self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
                                 ch.cap_band.astype(np.int64), ch.cap_value)
         self.glabels = labels
@@ -134,24 +167,21 @@ class ChannelLevel:
         window node coordinates; NodeField.origin gives the window's first node."""
         lv, ch = self.level, self.ch
         i0, j0, n, m = lv.window(bi, bj)
+        r = lv.r
         if lv.block:
-            B, M = lv.block, MARGIN
-            rows = self.rows.of((i0) // B, (i0 + n - 1) // B)
-            cols = self.cols.of((j0) // B, (j0 + m - 1) // B)
-            del M
+            B = lv.block
+            hx0, hy0, hx1, hy1, hs = self.edges_of(self.rows.of(i0 // B, (i0 + n - 1) // B))
+            vx0, vy0, vx1, vy1, vs = self.edges_of(self.cols.of(j0 // B, (j0 + m - 1) // B))
         else:
-            rows = cols = slice(None)
-        hx0, hy0, hx1, hy1 = self.nx0[rows] - j0, self.ny0[rows] - i0, self.nx1[rows] - j0, self.ny1[rows] - i0
-        vx0, vy0, vx1, vy1 = self.nx0[cols] - j0, self.ny0[cols] - i0, self.nx1[cols] - j0, self.ny1[cols] - i0
-        band, *h = rasterise(hx0, hy0, hx1, hy1, self.src[rows], 0, 0, n, m, True)
+            hx0, hy0, hx1, hy1, hs = vx0, vy0, vx1, vy1, vs = self.edges
+        band, *h = rasterise(hx0 * r - j0, hy0 * r - i0, hx1 * r - j0, hy1 * r - i0, hs, 0, 0, n, m, True)
         band += np.int16(ch.base_band)
-        _, *v = rasterise(vy0, vx0, vy1, vx1, self.src[cols], 0, 0, m, n, True, True)
+        _, *v = rasterise(vy0 * r - i0, vx0 * r - j0, vy1 * r - i0, vx1 * r - j0, vs, 0, 0, m, n, True, True)
         mode = MODES[distance]
         F = seed(band, tuple(h), tuple(v), ch.levels, mode)
         del h, v
         propagate(F, band, offsets(mode), mode, MAX_SWEEPS)
         labels, nreg = label_nodes(band)
-        r = lv.r
         if lv.block:
             none = np.zeros(0)
             dmax, _ = region_caps(F, band, labels, nreg, none, none, np.zeros(0, np.int64), none)
@@ -168,7 +198,7 @@ class ChannelLevel:
             corr, nv = correction(nv, int(round(r)), float(sharpen[0]), float(sharpen[1]))
         else:
             corr = np.zeros((0, 0), np.float32)
-        nf = NodeField(F, band, ch.levels, r, mode, self.edges, ch.base_band, labels, dmax, capv, nv, smooth, bw,
+        nf = NodeField(F, band, ch.levels, r, mode, None, ch.base_band, labels, dmax, capv, nv, smooth, bw,
                        ramp, corr)
         nf.origin = (i0, j0)
         return nf

@@ -53,25 +53,35 @@ class BlockCache:
 
 
 class SampleEdges:
-    """A channel's edges in target-sample units (as fill.StripEdges), indexed by buckets of
-    SAMPLE_BUCKET sample rows: any strip takes the edges of the buckets it reaches. The
-    bands do not depend on which extra edges a strip is given (a winding sum of the edges
-    that cross its rows), so any strip cut gives the same samples."""
+    """A channel's edges in target-sample units (as fill.StripEdges). On a one-window level
+    all of them, indexed by buckets of SAMPLE_BUCKET sample rows; on a blocked level the
+    segments of the block rows a strip reaches, flattened for that strip. The bands do not
+    depend on which extra edges a strip is given (a winding sum of the edges that cross its
+    rows), so any strip cut gives the same samples."""
 
-    def __init__(self, edges, vp, n_rows: int):
-        x0, y0, x1, y1, self.src = edges
+    def __init__(self, cl, vp, n_rows: int):
+        self.cl, self.vp = cl, vp
+        if cl.level.block:
+            return
+        x0, y0, x1, y1, self.src = cl.edges
         self.X0, self.X1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx
         self.Y0, self.Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
         lo = np.minimum(self.Y0, self.Y1) - vp.row0
         hi = np.maximum(self.Y0, self.Y1) - vp.row0
         self.buckets = Buckets(lo, hi, SAMPLE_BUCKET, max(1, -(-n_rows // SAMPLE_BUCKET)))
 
-    def band(self, row0, col0, a0: int, n: int, m: int, base_band: int) -> np.ndarray:
-        """Bands of sample rows [a0, a0 + n) of the output (row0 + a0 globally), m columns."""
-        sel = self.buckets.of(a0 // SAMPLE_BUCKET, (a0 + n - 1) // SAMPLE_BUCKET)
-        tband, *_ = rasterise(self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel],
-                              row0 + a0, col0, n, m, False)
-        tband += np.int16(base_band)
+    def band(self, ys, a0: int, n: int, m: int) -> np.ndarray:
+        """Bands of sample rows [a0, a0 + n) of the output (at node rows ys), m columns."""
+        vp, cl = self.vp, self.cl
+        if cl.level.block:
+            B = cl.level.block
+            x0, y0, x1, y1, src = cl.edges_of(cl.row_segments(int(ys[a0] // B), int(ys[a0 + n - 1] // B)))
+            X0, X1, Y0, Y1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+        else:
+            sel = self.buckets.of(a0 // SAMPLE_BUCKET, (a0 + n - 1) // SAMPLE_BUCKET)
+            X0, Y0, X1, Y1, src = self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel]
+        tband, *_ = rasterise(X0, Y0, X1, Y1, src, vp.row0 + a0, vp.col0, n, m, False)
+        tband += np.int16(cl.ch.base_band)
         return tband
 
 
@@ -104,7 +114,7 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
     s = vp.s
     a0, a1 = out_r0 * s, out_r1 * s
     n, m = a1 - a0, vp.out_w * s
-    tband = sedges.band(vp.row0, vp.col0, a0, n, m, cl.ch.base_band)
+    tband = sedges.band(ys, a0, n, m)
     out = np.empty((n, m), np.float32)
     nbr, nbc = lv.blocks()
     col_runs = split(xs, lv.block, nbc)
