@@ -115,6 +115,40 @@ class Buckets:
         return np.flatnonzero(mark) + lo
 
 
+class Buckets2D:
+    """Indices of segments by the blocks (row, column) their bounding box reaches (widened
+    by a node), in their original order within each block."""
+
+    def __init__(self, x_lo, x_hi, y_lo, y_hi, size: int, nbr: int, nbc: int):
+        r0 = np.clip(np.floor((y_lo - 1.0) / size), 0, nbr - 1).astype(np.int64)
+        r1 = np.clip(np.floor((y_hi + 1.0) / size), 0, nbr - 1).astype(np.int64)
+        c0 = np.clip(np.floor((x_lo - 1.0) / size), 0, nbc - 1).astype(np.int64)
+        c1 = np.clip(np.floor((x_hi + 1.0) / size), 0, nbc - 1).astype(np.int64)
+        nrow, ncol = r1 - r0 + 1, c1 - c0 + 1
+        count = nrow * ncol
+        seg = np.repeat(np.arange(len(r0)), count)
+        k = np.arange(len(seg)) - np.repeat(np.cumsum(count) - count, count)  # rank within its segment
+        row = r0[seg] + k // ncol[seg]
+        col = c0[seg] + k % ncol[seg]
+        bucket = row * nbc + col
+        order = np.argsort(bucket, kind="stable")
+        self.index = seg[order]
+        self.starts = np.searchsorted(bucket[order], np.arange(nbr * nbc + 1))
+        self.nbr, self.nbc = nbr, nbc
+
+    def of(self, b0: int, b1: int, c0: int, c1: int) -> np.ndarray:
+        """Segments reaching blocks rows b0..b1 x columns c0..c1, each once, ascending."""
+        b0, b1, c0, c1 = max(b0, 0), min(b1, self.nbr - 1), max(c0, 0), min(c1, self.nbc - 1)
+        parts = [self.index[self.starts[b * self.nbc + c0]:self.starts[b * self.nbc + c1 + 1]] for b in range(b0, b1 + 1)]
+        idx = np.concatenate(parts) if parts else np.zeros(0, np.int64)
+        if len(idx) == 0:
+            return idx
+        lo = int(idx.min())
+        mark = np.zeros(int(idx.max()) - lo + 1, np.bool_)
+        mark[idx - lo] = True
+        return np.flatnonzero(mark) + lo
+
+
 class ChannelLevel:
     """One channel at one level: its segments, flattened (at ``tol``) a window at a time
     from an index of their bounding boxes by block rows and columns (all at once on a
@@ -133,9 +167,27 @@ class ChannelLevel:
         r = level.r
         nbr, nbc = level.blocks()
         xs, ys = segs[:, :, 0], segs[:, :, 1]
-        self.rows = Buckets(ys.min(axis=1) * r, ys.max(axis=1) * r, level.block, nbr)
-        self.cols = Buckets(xs.min(axis=1) * r, xs.max(axis=1) * r, level.block, nbc)
+        # bounding boxes in node units (the curve lies in its control points' hull)
+        self.box = np.stack([xs.min(axis=1) * r, xs.max(axis=1) * r, ys.min(axis=1) * r, ys.max(axis=1) * r])
+        del xs, ys
+        self.rows = Buckets(self.box[2], self.box[3], level.block, nbr)
+        self.grid = Buckets2D(self.box[0], self.box[1], self.box[2], self.box[3], level.block, nbr, nbc)
         self._regions()
+
+    def window_segments(self, i0: int, j0: int, n: int, m: int) -> np.ndarray:
+        """Segments whose box reaches the window's nodes (widened by a node)."""
+        B = self.level.block
+        idx = self.grid.of(i0 // B, (i0 + n - 1) // B, j0 // B, (j0 + m - 1) // B)
+        bx = self.box[:, idx]
+        keep = (bx[1] >= j0 - 1) & (bx[0] <= j0 + m + 1) & (bx[3] >= i0 - 1) & (bx[2] <= i0 + n + 1)
+        return idx[keep]
+
+    def strip_segments(self, y_lo: float, y_hi: float) -> np.ndarray:
+        """Segments whose box reaches node rows y_lo..y_hi (widened by a node)."""
+        B = self.level.block
+        idx = self.rows.of(int(y_lo // B), int(y_hi // B))
+        bx = self.box[:, idx]
+        return idx[(bx[3] >= y_lo - 1) & (bx[2] <= y_hi + 1)]
 
     def edges_of(self, idx):
         """Edges of the segments idx (ascending), in source pixels."""
@@ -143,24 +195,20 @@ class ChannelLevel:
             return self.edges
         return flatten(self.segs[idx], self.border[idx], self.tol)
 
-    def row_segments(self, b0: int, b1: int):
-        """Segments reaching block rows b0..b1 (None: all, on a one-window level)."""
-        return self.rows.of(b0, b1) if self.level.block else None
-
     def _regions(self):
         """Bands of the whole level, a block row at a time, then their regions and cap values."""
         lv, ch = self.level, self.ch
         r, B = lv.r, lv.block
         band = np.empty((lv.nr, lv.nc), np.int16)
         for bi in range(lv.blocks()[0]):
-            x0, y0, x1, y1, src = self.edges_of(self.rows.of(bi, bi))
             i0, n = bi * B, min(B, lv.nr - bi * B)
+            x0, y0, x1, y1, src = self.edges_of(self.strip_segments(i0, i0 + n))
             band[i0:i0 + n], *_ = rasterise(x0 * r, y0 * r - i0, x1 * r, y1 * r - i0, src, 0, 0, n, lv.nc, False)
         band += np.int16(ch.base_band)
         labels, m = label_nodes(band)
         self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
                                 ch.cap_band.astype(np.int64), ch.cap_value)
-        self.glabels = labels
+        self.glabels, self.gband = labels, band
 
     def field(self, bi: int, bj: int, distance: str, smooth: bool, sharpen) -> NodeField:
         """The fields of block (bi, bj) on its window (the whole level when not blocked), in
@@ -168,15 +216,14 @@ class ChannelLevel:
         lv, ch = self.level, self.ch
         i0, j0, n, m = lv.window(bi, bj)
         r = lv.r
-        if lv.block:
-            B = lv.block
-            hx0, hy0, hx1, hy1, hs = self.edges_of(self.rows.of(i0 // B, (i0 + n - 1) // B))
-            vx0, vy0, vx1, vy1, vs = self.edges_of(self.cols.of(j0 // B, (j0 + m - 1) // B))
-        else:
-            hx0, hy0, hx1, hy1, hs = vx0, vy0, vx1, vy1, vs = self.edges
-        band, *h = rasterise(hx0 * r - j0, hy0 * r - i0, hx1 * r - j0, hy1 * r - i0, hs, 0, 0, n, m, True)
+        # a blocked window takes only the segments that reach it: the winding of those wholly
+        # left of it is the canvas band's at its first column (the same edges, so the same sum)
+        x0, y0, x1, y1, es = self.edges_of(self.window_segments(i0, j0, n, m) if lv.block else None)
+        band, *h = rasterise(x0 * r - j0, y0 * r - i0, x1 * r - j0, y1 * r - i0, es, 0, 0, n, m, True)
         band += np.int16(ch.base_band)
-        _, *v = rasterise(vy0 * r - i0, vx0 * r - j0, vy1 * r - i0, vx1 * r - j0, vs, 0, 0, m, n, True, True)
+        if lv.block:
+            band += (self.gband[i0:i0 + n, j0] - band[:, 0])[:, None]
+        _, *v = rasterise(y0 * r - i0, x0 * r - j0, y1 * r - i0, x1 * r - j0, es, 0, 0, m, n, True, True)
         mode = MODES[distance]
         F = seed(band, tuple(h), tuple(v), ch.levels, mode)
         del h, v

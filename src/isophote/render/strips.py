@@ -74,8 +74,7 @@ class SampleEdges:
         """Bands of sample rows [a0, a0 + n) of the output (at node rows ys), m columns."""
         vp, cl = self.vp, self.cl
         if cl.level.block:
-            B = cl.level.block
-            x0, y0, x1, y1, src = cl.edges_of(cl.row_segments(int(ys[a0] // B), int(ys[a0 + n - 1] // B)))
+            x0, y0, x1, y1, src = cl.edges_of(cl.strip_segments(ys[a0], ys[a0 + n - 1]))
             X0, X1, Y0, Y1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
         else:
             sel = self.buckets.of(a0 // SAMPLE_BUCKET, (a0 + n - 1) // SAMPLE_BUCKET)
