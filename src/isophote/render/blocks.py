@@ -168,7 +168,7 @@ class ChannelLevel:
         nbr, nbc = level.blocks()
         xs, ys = segs[:, :, 0], segs[:, :, 1]
         # bounding boxes in node units (the curve lies in its control points' hull)
-        self.box = np.stack([xs.min(axis=1) * r, xs.max(axis=1) * r, ys.min(axis=1) * r, ys.max(axis=1) * r])
+        self.box = np.stack([xs.min(axis=1) * r, xs.max(axis=1) * r, ys.min(axis=1) * r, ys.max(axis=1) * r]).astype(np.float32)
         del xs, ys
         self.rows = Buckets(self.box[2], self.box[3], level.block, nbr)
         self.grid = Buckets2D(self.box[0], self.box[1], self.box[2], self.box[3], level.block, nbr, nbc)
