@@ -153,3 +153,24 @@ def test_encoder_maximum_fits_at_1x_and_below(vi):
         levels = [channel_state(big, ch, vp, opts, plan_only=True)[0] for ch in big.channels]
         check_memory(big, vp, opts, levels, 8)
         assert render_bytes(big, vp, levels, 8) > vp.out_w * vp.out_h * 3
+
+
+def test_progress_reaches_100_and_is_quiet_in_pipes(vi):
+    import io
+
+    from isophote.render.progress import TerminalProgress
+
+    seen = []
+    vi.render(scale=2, progress=seen.append)
+    assert seen and seen == sorted(seen) and seen[-1] == 1.0
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty, pipe = Tty(), io.StringIO()
+    for stream in (tty, pipe):
+        p = TerminalProgress("isophote: rendering", stream=stream)
+        vi.render(progress=p)
+        p.done()
+    assert "100%" in tty.getvalue() and pipe.getvalue() == ""

@@ -606,8 +606,11 @@ def cmd_render(args) -> int:
     reference = None
     if args.compare is not None:
         reference = _reference_for(args.compare, vi, opts, (vp.out_h, vp.out_w))
-    progress(f"rendering {vp.out_w}x{vp.out_h} ({opts.fill})...")
-    a = render_float(vi, **{f.name: getattr(opts, f.name) for f in fields(opts)})
+    from .render.progress import TerminalProgress
+
+    strips = TerminalProgress(f"{PROG}: rendering {vp.out_w}x{vp.out_h} ({opts.fill})", args.quiet)
+    a = render_float(vi, progress=strips, **{f.name: getattr(opts, f.name) for f in fields(opts)})
+    strips.done()
     q = quantise(a, opts.depth).astype(float)
     samples = q / 257.0 if opts.depth == 16 else q  # exactly what the file holds, on 0..255
     progress(f"writing {args.output}")

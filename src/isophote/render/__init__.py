@@ -89,13 +89,14 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
     return Viewport(out_w, out_h, s, kx, ky, row0, col0, offx, offy)
 
 
-def render_float(vi, **options) -> np.ndarray:
+def render_float(vi, progress=None, **options) -> np.ndarray:
     """Render to float64 samples on 0..255, (H, W, C) with the image's channels in RGB(A) or
-    grey(+alpha) order, unquantised. Options: the fields of RenderOptions."""
-    return _render(vi, make(RenderOptions, options), None)
+    grey(+alpha) order, unquantised. Options: the fields of RenderOptions; ``progress``:
+    called with the fraction done after each strip (render/progress.py), or None."""
+    return _render(vi, make(RenderOptions, options), None, progress)
 
 
-def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
+def render(vi, width=None, height=None, scale=None, progress=None, **options) -> np.ndarray:
     """Render a VectorImage.
 
     Parameters
@@ -108,7 +109,7 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
     (H, W) for grey, else (H, W, C) ndarray: uint8 for depth 8, uint16 for depth 16.
     """
     opts = make(RenderOptions, dict(width=width, height=height, scale=scale, **options))
-    out = _render(vi, opts, opts.depth)
+    out = _render(vi, opts, opts.depth, progress)
     return out[..., 0] if out.shape[2] == 1 else out
 
 
