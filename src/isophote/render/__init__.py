@@ -7,10 +7,13 @@
         ->  colour (YUV -> RGB), quantise
 
 The fill is a fixed function of the vector image and the output scale: distances live on a
-node grid over the whole image (r nodes per source pixel, chosen from the image size and the
-scale, never from the crop), and each target sample reads the nodes around it. A crop is
-therefore exactly the same region of the full render at that scale, and tiles join
-seamlessly.
+node grid, a level (r nodes per source pixel, chosen from the canvas and the scale, never
+from the crop: levels.py; below 1x at the output's resolution, with 2 x 2 samples a pixel
+box-filtered), cut into canvas-aligned blocks whose fields are computed on the block plus a
+margin when the level is large (blocks.py), and each target sample reads the nodes around it
+in its block. A crop is therefore exactly the same region of the full render at that scale,
+tiles join seamlessly (tiles.py), and a render computes only the blocks under its samples.
+Memory is estimated and checked before anything is allocated (limits_render.py).
 """
 
 from __future__ import annotations
