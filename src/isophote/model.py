@@ -249,6 +249,21 @@ class VectorImage:
 
         return render(self, width=width, height=height, scale=scale, **options)
 
+    def prepare(self, zooms=(1.0,)):
+        """Prepare (once, kept with this image) what tiles and renders at these zooms share;
+        see :mod:`isophote.render.tiles`."""
+        from .render.prepare import prepare
+
+        return prepare(self, zooms)
+
+    def tile(self, region, size, **options):
+        """The crop region = (x, y, w, h) rendered to size = (out_w, out_h), from the cached
+        preparation: equal to ``render(crop=region, width=, height=)``."""
+        from .render.prepare import prepare
+
+        prepare(self, ())
+        return self.render(width=int(size[0]), height=int(size[1]), crop=tuple(region), **options)
+
     def save(self, path) -> None:
         """Write an .isoph file (atomically)."""
         from .format.isoph import save

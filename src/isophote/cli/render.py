@@ -156,8 +156,12 @@ def run_render(args) -> int:
     reference = None
     if args.compare is not None:
         reference = _reference_for(args.compare, opts, (vp.out_h, vp.out_w))
-    job.progress(f"rendering {vp.out_w}x{vp.out_h} ({opts.fill})...")
-    q = render(vi, **{f.name: getattr(opts, f.name) for f in fields(opts)})  # uint8 / uint16, as written
+    from ..render.progress import TerminalProgress
+
+    job.progress.done()
+    strips = TerminalProgress(f"{PROG}: rendering {vp.out_w}x{vp.out_h} ({opts.fill})", args.quiet)
+    q = render(vi, progress=strips, **{f.name: getattr(opts, f.name) for f in fields(opts)})  # uint8 / uint16
+    strips.done()
     job.progress(f"writing {shown(args.output)}")
     write_raster(args, ext, q, depth=opts.depth, icc_profile=profile_of(vi.meta))
     how = opts.fill if opts.fill == "flat" else f"{opts.fill}/{opts.distance}"

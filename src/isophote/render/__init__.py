@@ -7,10 +7,13 @@
         ->  colour (YUV -> RGB), quantise
 
 The fill is a fixed function of the vector image and the output scale: distances live on a
-node grid over the whole image (r nodes per source pixel, chosen from the image size and the
-scale, never from the crop), and each target sample reads the nodes around it. A crop is
-therefore exactly the same region of the full render at that scale, and tiles join
-seamlessly.
+node grid, a level (r nodes per source pixel, chosen from the canvas and the scale, never
+from the crop: levels.py; below 1x at the output's resolution, with 2 x 2 samples a pixel
+box-filtered), cut into canvas-aligned blocks whose fields are computed on the block plus a
+margin when the level is large (blocks.py), and each target sample reads the nodes around it
+in its block. A crop is therefore exactly the same region of the full render at that scale,
+tiles join seamlessly (tiles.py), and a render computes only the blocks under its samples.
+Memory is estimated and checked before anything is allocated (limits_render.py).
 """
 
 from __future__ import annotations
@@ -25,12 +28,12 @@ from ..colour import YUV_TO_RGB, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
-from .distance import NodeField, node_field
-from .fill import StripEdges, fill_strip
-from ..geometry import EdgesPen
+from ..geometry import segments
+from .blocks import ChannelLevel, make_level, split
+from .levels import auto_supersample, reduction_r
+from .prepare import prepared
 from .sharpen import gains
-
-STRIP_ROWS = 128  # output rows per strip: bounds memory at large sizes
+from .strips import STRIP_ROWS, BlockCache, SampleEdges, fill_rows, sample_positions, strip_cuts  # noqa: F401
 
 
 @dataclass(frozen=True)
@@ -60,9 +63,9 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
         from ..errors import OptionError
 
         raise OptionError(f"crop {cx:g},{cy:g},{cw:g},{ch:g} leaves the {vi.width}x{vi.height} image")
-    s = int(opts.supersample)
     if opts.scale is not None:
         out_w, out_h = max(1, round(cw * opts.scale)), max(1, round(ch * opts.scale))
+        s = auto_supersample(opts.supersample, float(opts.scale))
         kx = ky = s * float(opts.scale)
     elif opts.width is not None or opts.height is not None:
         if opts.width is not None and opts.height is not None:
@@ -73,9 +76,11 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
         else:
             out_h = int(opts.height)
             out_w = max(1, round(cw * out_h / ch))
+        s = auto_supersample(opts.supersample, max(out_w / cw, out_h / ch))
         kx, ky = s * out_w / cw, s * out_h / ch
     else:
         out_w, out_h = max(1, round(cw)), max(1, round(ch))
+        s = auto_supersample(opts.supersample, max(out_w / cw, out_h / ch))
         kx, ky = s * out_w / cw, s * out_h / ch
     if out_w * out_h > opts.max_pixels:
         raise LimitError(
@@ -87,13 +92,14 @@ def viewport(vi, opts: RenderOptions) -> Viewport:
     return Viewport(out_w, out_h, s, kx, ky, row0, col0, offx, offy)
 
 
-def render_float(vi, **options) -> np.ndarray:
+def render_float(vi, progress=None, **options) -> np.ndarray:
     """Render to float64 samples on 0..255, (H, W, C) with the image's channels in RGB(A) or
-    grey(+alpha) order, unquantised. Options: the fields of RenderOptions."""
-    return _render(vi, make(RenderOptions, options), None)
+    grey(+alpha) order, unquantised. Options: the fields of RenderOptions; ``progress``:
+    called with the fraction done after each strip (render/progress.py), or None."""
+    return _render(vi, make(RenderOptions, options), None, progress)
 
 
-def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
+def render(vi, width=None, height=None, scale=None, progress=None, **options) -> np.ndarray:
     """Render a VectorImage.
 
     Parameters
@@ -106,49 +112,63 @@ def render(vi, width=None, height=None, scale=None, **options) -> np.ndarray:
     (H, W) for grey, else (H, W, C) ndarray: uint8 for depth 8, uint16 for depth 16.
     """
     opts = make(RenderOptions, dict(width=width, height=height, scale=scale, **options))
-    out = _render(vi, opts, opts.depth)
+    out = _render(vi, opts, opts.depth, progress)
     return out[..., 0] if out.shape[2] == 1 else out
 
 
-def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
-    """The pipeline on a few workers (below): the channels' distance fields, then strip by
-    strip of output rows, each channel's fill of the strip into a float32 plane of its own;
-    the task that fills a strip's last channel turns its planes into the output's colour
-    (quantised to ``depth`` bits, or float64 where depth is None) and lets them go. Strips
-    are queued in order, every channel of one before the next, so only the strips in flight
-    hold planes:
-    no output-sized float buffer is ever allocated (memory first touched is what a fresh
-    process pays most for: at 3840 x 3840, three such planes were 177 MB). A strip task
-    that waits for its channel's field waits on a running task: the queue is first in,
-    first out, and the field tasks come first."""
+def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
+    """The pipeline on a few workers (below): strip by strip of output rows, each channel's
+    fill of the strip into a float32 plane of its own (its block fields computed as the
+    strips reach them, blocks.py); the task that fills a strip's last channel turns its
+    planes into the output's colour (quantised to ``depth`` bits, or float64 where depth is
+    None) and lets them go. Strips are queued in order, every channel of one before the
+    next, so only the strips in flight hold planes: no output-sized float buffer is ever
+    allocated. A channel's strips run one at a time (its block cache's lock), in order.
+    ``progress``: called with the fraction done after each strip, or None."""
     opts.validate()
     vp = viewport(vi, opts)
+    prep = prepared(vi)
+    states = {ch.name: channel_state(vi, ch, vp, opts, prep, plan_only=True) for ch in vi.channels}
+    check_memory(vi, vp, opts, [lv for lv, _ in states.values()], depth, prep is not None)
     flat = opts.fill == "flat"
     n_out = (3 if vi.colour == "yuv" else 1) + (1 if vi.has_alpha else 0)
     dtype = np.float64 if depth is None else (np.uint16 if depth == 16 else np.uint8)
     out = np.empty((vp.out_h, vp.out_w, n_out), dtype)
     names = [ch.name for ch in vi.channels]
     tones = {ch.name: ch.tone for ch in vi.channels}
+    blocked = [lv for lv, _ in states.values() if lv.block]
+    guide = blocked[0] if blocked else states[names[0]][0]
+    _, ys_guide = sample_positions(vp, guide.r)
+    cuts = strip_cuts(vp, guide, ys_guide)
     lock = threading.Lock()
     held = {}  # first row of a strip -> the planes of it filled so far
-
+    done = [0]
     # At or below 1x the fields are nearly all the work: a worker per channel keeps both
-    # cores busy to the end, where with two the third channel's field ran alone (astronaut
-    # at 1x, 4 alternating runs: 0.24 s against 0.29 s). Above 1x the first channels' strips
-    # keep the cores busy while the last field is computed, and a third concurrent field
-    # only contends (3840 x 3840: 2.56 s with two workers against 2.69 s).
+    # cores busy to the end. Above 1x the first channels' strips keep the cores busy while
+    # the last field is computed, and a third concurrent field only contends.
     workers = len(names) if max(vp.kx, vp.ky) / vp.s <= 1.0 + 1e-9 else min(2, len(names))
+    ready = {}
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        def field(ch):
-            nf = _channel_field(vi, ch, vp, opts)
-            return nf, StripEdges(nf, vp, STRIP_ROWS)
+        def setup(ch):
+            cl, cache = channel_state(vi, ch, vp, opts, prep)
+            xs, ys = sample_positions(vp, cl.level.r)
+            cuts_ch = cuts if cl.level.block else None
+            last = {}
+            if cl.level.block:
+                nbr = cl.level.blocks()[0]
+                for r0, r1 in cuts:
+                    for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
+                        last[bi] = r1
+            del cuts_ch
+            return cache, SampleEdges(cl, vp, vp.out_h * vp.s), xs, ys, last
 
-        fields = {ch.name: pool.submit(field, ch) for ch in vi.channels}
+        ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
 
-        def fill(name, r0):
-            r1 = min(r0 + STRIP_ROWS, vp.out_h)
-            nf, edges = fields[name].result()
-            plane = fill_strip(nf, vp, edges, r0, r1, flat, tones[name])
+        def fill(name, r0, r1):
+            cache, sedges, xs, ys, last = ready[name].result()
+            with cache.lock:
+                plane = fill_rows(cache, sedges, vp, xs, ys, r0, r1, flat, tones[name],
+                                  last if prep is None else None)
             with lock:
                 planes = held.setdefault(r0, {})
                 planes[name] = plane
@@ -156,10 +176,48 @@ def _render(vi, opts: RenderOptions, depth) -> np.ndarray:
                     return
                 del held[r0]
             out[r0:r1] = _convert(vi, planes, depth)
+            if progress is not None:
+                with lock:
+                    done[0] += r1 - r0
+                    progress(done[0] / vp.out_h)
 
-        for f in [pool.submit(fill, name, r0) for r0 in range(0, vp.out_h, STRIP_ROWS) for name in names]:
+        for f in [pool.submit(fill, name, r0, r1) for r0, r1 in cuts for name in names]:
             f.result()
     return out
+
+
+def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_only=False):
+    """A channel's ChannelLevel and BlockCache for this viewport (from the preparation where
+    there is one); with ``plan_only`` just its Level, and nothing is computed."""
+    z = max(vp.kx, vp.ky) / vp.s
+    if z > 1.0 + 1e-9:
+        r = float(node_resolution(vi.width, vi.height, z, chroma=ch.name in ("U", "V")))
+    else:
+        r = reduction_r(z)
+    level = make_level(vi, r, z, len(ch.border))
+    if plan_only:
+        return level, None
+    tol = 0.05 / max(r, vp.kx, vp.ky)  # flatten finely enough for both the nodes and the samples
+    gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
+    smooth = opts.fill != "linear"
+
+    def make_level_state():
+        segs, border = prep.get(prep.edges, ch.name, lambda: segments(ch)) if prep is not None else segments(ch)
+        if level.block:
+            with _REGIONS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
+                return ChannelLevel(vi, ch, segs, border, tol, level)
+        return ChannelLevel(vi, ch, segs, border, tol, level)
+
+    if prep is None:
+        cl = make_level_state()
+        return cl, BlockCache(cl, opts.distance, smooth, gain, 1 << 62)
+    cl = prep.get(prep.levels, (ch.name, tol, level), make_level_state)
+    cache = prep.get(prep.caches, (ch.name, tol, level, opts.distance, smooth, gain),
+                     lambda: BlockCache(cl, opts.distance, smooth, gain, prep.field_bytes // max(1, len(vi.channels))))
+    return cl, cache
+
+
+_REGIONS_LOCK = threading.Lock()
 
 
 def _convert(vi, planes, depth) -> np.ndarray:
@@ -192,37 +250,10 @@ def quantise(a: np.ndarray, depth: int) -> np.ndarray:
     return np.clip(np.rint(a), 0, 255).astype(np.uint8)
 
 
-def _channel_field(vi, ch, vp: Viewport, opts: RenderOptions) -> NodeField:
-    # flatten finely enough for both the node grid and the target samples
-    r = node_resolution(vi.width, vi.height, max(vp.kx, vp.ky) / vp.s, chroma=ch.name in ("U", "V"))
-    check_nodes(vi, r, opts)
-    pen = EdgesPen(0.05 / max(r, vp.kx, vp.ky))
-    ch.draw(pen)
-    edges = pen.edges()
-    gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
-    return node_field(vi, ch, edges, r, opts.distance, smooth=opts.fill != "linear", sharpen=gain)
-
-
 NODE_BUDGET = 6_000_000
 
 
-NODE_BYTES = 120  # peak bytes per distance node: fields 48, crossings 52 (transient), the rest 20
-
-
-def check_nodes(vi, r: int, opts: RenderOptions) -> None:
-    """The distance grid covers the whole canvas whatever the output size (so that crops equal
-    the full render), at about NODE_BYTES a node at peak. A canvas needing more than
-    max(max_pixels / 8, 1 million) nodes (12.5 million, 1.5 GB, by default: a 4500 x 2800
-    photograph at 1x) is refused before anything is allocated; a tiny file can declare a huge
-    canvas."""
-    nodes = int(vi.width) * int(vi.height) * r * r
-    limit = max(opts.max_pixels // 8, 1_000_000)  # a small canvas is always fine
-    if nodes > limit:
-        raise LimitError(
-            f"the {vi.width}x{vi.height} canvas needs {nodes:,} distance nodes (about "
-            f"{nodes * NODE_BYTES / 2**30:.1f} GiB), more than {limit:,}; raise max_pixels "
-            f"(--max-pixels) to at least {8 * nodes:,} to allow it"
-        )
+from .limits_render import check_memory  # noqa: E402
 
 
 def node_resolution(width: int, height: int, scale: float, chroma: bool = False) -> int:

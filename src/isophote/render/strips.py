@@ -1,0 +1,132 @@
+"""One strip of output rows of one channel, read from the block fields (blocks.py).
+
+A channel renders from a ChannelLevel (its level, edges and regions) through a BlockCache
+(the block fields it has computed, least recently used first out). Strips follow the block
+rows of the first blocked channel, so that a full render computes every block once and
+keeps at most a row of blocks (the ones a straddling output row still needs).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+
+import numpy as np
+
+from ..model import apply_tone_curve
+from ._kernels.raster import rasterise
+from .blocks import WINDOW_BYTES, Buckets, evaluate_piece, split
+
+STRIP_ROWS = 128  # output rows per strip of a one-window render
+SAMPLE_BUCKET = 64  # sample rows per bucket of the samples' edge index
+
+
+class BlockCache:
+    """The fields of one channel's blocks, computed on demand (thread-safe, one at a time)."""
+
+    def __init__(self, cl, distance: str, smooth: bool, sharpen, capacity: int):
+        self.cl, self.distance, self.smooth, self.sharpen = cl, distance, smooth, sharpen
+        self.capacity = capacity
+        self.blocks = OrderedDict()
+        self.bytes = 0
+        self.lock = threading.RLock()
+
+    def get(self, bi: int, bj: int):
+        with self.lock:
+            nf = self.blocks.get((bi, bj))
+            if nf is not None:
+                self.blocks.move_to_end((bi, bj))
+                return nf
+            nf = self.cl.field(bi, bj, self.distance, self.smooth, self.sharpen)
+            self.blocks[(bi, bj)] = nf
+            self.bytes += nf.band.size * WINDOW_BYTES
+            while self.bytes > self.capacity and len(self.blocks) > 1:
+                _, old = self.blocks.popitem(last=False)
+                self.bytes -= old.band.size * WINDOW_BYTES
+            return nf
+
+    def drop(self, bi: int, bj: int) -> None:
+        with self.lock:
+            nf = self.blocks.pop((bi, bj), None)
+            if nf is not None:
+                self.bytes -= nf.band.size * WINDOW_BYTES
+
+
+class SampleEdges:
+    """A channel's edges in target-sample units (as fill.StripEdges). On a one-window level
+    all of them, indexed by buckets of SAMPLE_BUCKET sample rows; on a blocked level the
+    segments of the block rows a strip reaches, flattened for that strip. The bands do not
+    depend on which extra edges a strip is given (a winding sum of the edges that cross its
+    rows), so any strip cut gives the same samples."""
+
+    def __init__(self, cl, vp, n_rows: int):
+        self.cl, self.vp = cl, vp
+        if cl.level.block:
+            return
+        x0, y0, x1, y1, self.src = cl.edges
+        self.X0, self.X1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx
+        self.Y0, self.Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+        lo = np.minimum(self.Y0, self.Y1) - vp.row0
+        hi = np.maximum(self.Y0, self.Y1) - vp.row0
+        self.buckets = Buckets(lo, hi, SAMPLE_BUCKET, max(1, -(-n_rows // SAMPLE_BUCKET)))
+
+    def band(self, ys, a0: int, n: int, m: int) -> np.ndarray:
+        """Bands of sample rows [a0, a0 + n) of the output (at node rows ys), m columns."""
+        vp, cl = self.vp, self.cl
+        if cl.level.block:
+            x0, y0, x1, y1, src = cl.edges_of(cl.strip_segments(ys[a0], ys[a0 + n - 1]))
+            X0, X1, Y0, Y1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+        else:
+            sel = self.buckets.of(a0 // SAMPLE_BUCKET, (a0 + n - 1) // SAMPLE_BUCKET)
+            X0, Y0, X1, Y1, src = self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel]
+        tband, *_ = rasterise(X0, Y0, X1, Y1, src, vp.row0 + a0, vp.col0, n, m, False)
+        tband += np.int16(cl.ch.base_band)
+        return tband
+
+
+def sample_positions(vp, r: float):
+    """Node coordinates of the output's sample columns and rows at r nodes a source pixel."""
+    xs = (vp.col0 + np.arange(vp.out_w * vp.s) + 0.5 + vp.offx) / vp.kx * r
+    ys = (vp.row0 + np.arange(vp.out_h * vp.s) + 0.5 + vp.offy) / vp.ky * r
+    return xs, ys
+
+
+def strip_cuts(vp, level, ys) -> list[tuple[int, int]]:
+    """Output row ranges of the strips: STRIP_ROWS rows, or for a blocked level the runs of
+    output rows whose first sample row lies in one block row (at most 2 * BLOCK rows)."""
+    if not level.block:
+        return [(r0, min(r0 + STRIP_ROWS, vp.out_h)) for r0 in range(0, vp.out_h, STRIP_ROWS)]
+    first = ys[:: vp.s][: vp.out_h]
+    cuts = []
+    for _, a, z in split(first, level.block, level.blocks()[0]):
+        for r0 in range(a, z, 2 * level.block):
+            cuts.append((r0, min(r0 + 2 * level.block, z)))
+    return cuts
+
+
+def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, out_r1: int, flat: bool,
+              tone, last_use=None) -> np.ndarray:
+    """Output rows [out_r0, out_r1) of one channel, (rows, out_w) float32. last_use: block
+    row -> the last output row that reads it; blocks past it are let go."""
+    cl = cache.cl
+    lv = cl.level
+    s = vp.s
+    a0, a1 = out_r0 * s, out_r1 * s
+    n, m = a1 - a0, vp.out_w * s
+    tband = sedges.band(ys, a0, n, m)
+    out = np.empty((n, m), np.float32)
+    nbr, nbc = lv.blocks()
+    col_runs = split(xs, lv.block, nbc)
+    for bi, p0, p1 in split(ys[a0:a1], lv.block, nbr):
+        for bj, c0, c1 in col_runs:
+            nf = cache.get(bi, bj)
+            piece = np.empty((p1 - p0, c1 - c0), np.float32)
+            evaluate_piece(nf, np.ascontiguousarray(tband[p0:p1, c0:c1]), xs[c0:c1], ys[a0 + p0:a0 + p1], flat,
+                           piece)
+            out[p0:p1, c0:c1] = piece
+            if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
+                cache.drop(bi, bj)  # no later strip reads this block
+    out = apply_tone_curve(out, tone)
+    if s > 1:
+        out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
+    return out

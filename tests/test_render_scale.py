@@ -1,0 +1,176 @@
+"""The renderer whose cost follows its output (issue 22): block fields, tiles, limits.
+
+Crops equal the same region of the full render at 1/4, 1 and 3, on one window and on
+blocks (forced small here, as a big master gets them), tiles equal render(crop=...), and
+renders do not depend on the strips or the workers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import isophote
+from isophote import LimitError
+from isophote.render import blocks, strips
+
+
+def _synthetic(w=96, h=72):
+    yy, xx = np.mgrid[0:h, 0:w].astype(float)
+    img = np.empty((h, w, 3))
+    img[..., 0] = 40 + 150 * xx / w
+    img[..., 1] = 200 - 120 * yy / h
+    img[..., 2] = 90
+    disc = (xx - 0.6 * w) ** 2 + (yy - 0.45 * h) ** 2 < (0.22 * h) ** 2
+    img[disc] = (230, 60, 40)
+    img[(np.abs(xx - 0.25 * w) < 6) & (np.abs(yy - 0.6 * h) < 10)] = (20, 20, 160)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+@pytest.fixture(scope="module")
+def vi():
+    return isophote.encode(_synthetic())
+
+
+@pytest.fixture(scope="module")
+def camera():
+    from skimage import data
+
+    return isophote.encode(data.camera()[180:308, 200:328])
+
+
+@pytest.fixture
+def forced_blocks(monkeypatch):
+    """Every level cut into 32-node blocks with 8 nodes of margin, as a big master's are."""
+    monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
+    monkeypatch.setattr(blocks, "BLOCK", 32)
+    monkeypatch.setattr(blocks, "MARGIN", 8)
+    monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
+
+
+CROPS = {0.25: [(8, 12, 48, 40), (0, 0, 32, 20), (64, 36, 32, 36)],
+         1: [(13, 7, 40, 30), (0, 0, 96, 1), (50, 41, 46, 31)],
+         3: [(13, 7, 20, 15), (70, 50, 26, 22)]}
+
+
+def _check_crops(vi, scale, crops):
+    full = vi.render(scale=scale)
+    for x, y, w, h in crops:
+        part = vi.render(scale=scale, crop=(x, y, w, h))
+        X, Y = round(x * scale), round(y * scale)
+        assert part.shape[:2] == (round(h * scale), round(w * scale))
+        assert np.array_equal(part, full[Y:Y + part.shape[0], X:X + part.shape[1]]), (scale, (x, y, w, h))
+
+
+@pytest.mark.parametrize("scale", sorted(CROPS))
+def test_crop_equals_region_one_window(vi, scale):
+    _check_crops(vi, scale, CROPS[scale])
+
+
+@pytest.mark.parametrize("scale", sorted(CROPS))
+def test_crop_equals_region_blocks(vi, forced_blocks, scale):
+    assert blocks.make_level(vi, 1.0, 1.0).block == 32
+    _check_crops(vi, scale, CROPS[scale])
+
+
+def test_crop_equals_region_corpus_photo(camera, forced_blocks):
+    for scale in (0.25, 1, 3):
+        _check_crops(camera, scale, [(16, 8, 64, 48), (4, 60, 40, 64)] if scale != 3 else [(16, 8, 30, 20)])
+
+
+def test_blocks_close_to_one_window(vi, camera, monkeypatch):
+    """Blocks change the fill only where a window misses a far source: on these images the
+    renders stay within a few levels of the one-window render, and as close to the original."""
+    one = {id(v): v.render() for v in (vi, camera)}
+    monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
+    monkeypatch.setattr(blocks, "BLOCK", 32)
+    monkeypatch.setattr(blocks, "MARGIN", 16)
+    for v in (vi, camera):
+        b = v.render()
+        d = np.abs(b.astype(int) - one[id(v)].astype(int))
+        assert d.mean() < 0.05 and d.max() <= 12
+
+
+def test_tile_equals_render_crop(vi, forced_blocks):
+    from isophote.render.tiles import Tiler
+
+    t = Tiler(vi, zooms=(1.0, 0.5))
+    for (x, y, w, h, ow, oh) in [(0, 0, 64, 64, 16, 16), (32, 16, 32, 32, 32, 32), (40, 24, 16, 16, 64, 64)]:
+        a = t.tile(x, y, w, h, ow, oh)
+        assert np.array_equal(a, vi.render(crop=(x, y, w, h), width=ow, height=oh))
+        assert np.array_equal(a, vi.tile((x, y, w, h), (ow, oh)))
+    assert t.preparation.levels  # the preparation holds the levels it made
+
+
+def test_same_bytes_whatever_strips_and_workers(vi, monkeypatch):
+    for forced in (False, True):
+        if forced:
+            monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
+            monkeypatch.setattr(blocks, "BLOCK", 32)
+            monkeypatch.setattr(blocks, "MARGIN", 8)
+        ref = {s: vi.render(scale=s) for s in (0.5, 1, 2)}
+        monkeypatch.setattr(strips, "STRIP_ROWS", 7)
+        monkeypatch.setattr(strips, "SAMPLE_BUCKET", 5)
+        import concurrent.futures as cf
+
+        monkeypatch.setattr("isophote.render.ThreadPoolExecutor", lambda max_workers: cf.ThreadPoolExecutor(1))
+        for s, a in ref.items():
+            assert np.array_equal(vi.render(scale=s), a), (forced, s)
+        monkeypatch.undo()
+
+
+def test_reduction_is_an_area_average():
+    """Below 1x the samples are 2 x 2 a pixel: a fine stripe pattern averages to grey instead
+    of aliasing to one of its two values."""
+    img = np.zeros((64, 64), np.uint8)
+    img[:, ::2] = 200
+    img[:, 1::2] = 40
+    v = isophote.encode(img)
+    q = v.render(scale=0.25).astype(float)
+    assert abs(q[4:-4, 4:-4].mean() - 120) < 25
+    assert q[4:-4, 4:-4].std() < 20
+
+
+def test_huge_canvas_refused_before_allocation(vi):
+    big = dataclasses.replace(vi, width=300_000, height=300_000)
+    with pytest.raises(LimitError, match=r"would need about [0-9.]+ GiB.*raise max_pixels"):
+        big.render(crop=(0, 0, 256, 256))
+
+
+def test_encoder_maximum_fits_at_1x_and_below(vi):
+    """A canvas as large as the encoder accepts (100 MP) passes the memory check at 1x and
+    below with the default limits (estimated, nothing allocated)."""
+    from isophote.options import RenderOptions
+    from isophote.render import channel_state, viewport
+    from isophote.render.limits_render import check_memory, render_bytes
+
+    big = dataclasses.replace(vi, width=10_000, height=10_000)
+    for scale in (1.0, 0.5, 0.1):
+        opts = RenderOptions(scale=scale)
+        vp = viewport(big, opts)
+        levels = [channel_state(big, ch, vp, opts, plan_only=True)[0] for ch in big.channels]
+        check_memory(big, vp, opts, levels, 8)
+        assert render_bytes(big, vp, levels, 8) > vp.out_w * vp.out_h * 3
+
+
+def test_progress_reaches_100_and_is_quiet_in_pipes(vi):
+    import io
+
+    from isophote.render.progress import TerminalProgress
+
+    seen = []
+    vi.render(scale=2, progress=seen.append)
+    assert seen and seen == sorted(seen) and seen[-1] == 1.0
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty, pipe = Tty(), io.StringIO()
+    for stream in (tty, pipe):
+        p = TerminalProgress("isophote: rendering", stream=stream)
+        vi.render(progress=p)
+        p.done()
+    assert "100%" in tty.getvalue() and pipe.getvalue() == ""
