@@ -5,6 +5,7 @@ A segment is a (4, 2) array of cubic Bezier control points in source pixels (mod
 the coordinates once); a channel's segments are an (S, 4, 2) array with a border flag each.
 """
 
-from .flatten import MAX_STEPS, flatten, flatten_ref, segments
+from .flatten import MAX_STEPS, flatten, segments
+from .flatten_ref import flatten as flatten_ref
 
 __all__ = ["MAX_STEPS", "flatten", "flatten_ref", "segments"]
