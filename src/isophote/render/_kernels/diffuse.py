@@ -379,6 +379,134 @@ def _mid(levels, b):
 
 
 @njit(cache=True, nogil=True)
+def _from_nodes(nv, nband, b, x, y, i0, j0):
+    """The sample (x, y) of band b read from the node fill nv, where it can be: a node itself
+    (renders at 1x), or in a cell whose four nodes share its band (no isoline crosses it;
+    module docstring). Returns (True, value), or (False, 0) for exact evaluation."""
+    nr, nc = nband.shape
+    if 0 <= i0 < nr and 0 <= j0 < nc and x == j0 + 0.5 and y == i0 + 0.5 and nband[i0, j0] == b:
+        # the sample is a node: nv holds this very evaluation
+        return True, np.float64(nv[i0, j0])
+    if nr > 1 and nc > 1 and -1 <= i0 < nr and -1 <= j0 < nc:
+        # within half a node of the frame, outside the outermost nodes, the edge
+        # cell extends linearly (as the cell next to it would), so the frame gets
+        # no step where exact evaluation would meet interpolation
+        ic = min(max(i0, 0), nr - 2)
+        jc = min(max(j0, 0), nc - 2)
+        if (nband[ic, jc] == b and nband[ic, jc + 1] == b
+                and nband[ic + 1, jc] == b and nband[ic + 1, jc + 1] == b):
+            fx = x - (jc + 0.5)
+            fy = y - (ic + 0.5)
+            return True, ((1.0 - fy) * ((1.0 - fx) * nv[ic, jc] + fx * nv[ic, jc + 1])
+                          + fy * ((1.0 - fx) * nv[ic + 1, jc] + fx * nv[ic + 1, jc + 1]))
+    return False, 0.0
+
+
+@njit(cache=True, nogil=True)
+def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
+    """The exact evaluation's search around the sample (x, y) of band b: the 2 x 2 nodes of its
+    cell, then (unless they hold a node of band b, or sources of both sides) the 4 x 4 around.
+    Returns the region of the nearest node of band b (-1: none) and per side (0 = lower, 1 =
+    upper) the distance (inf: none), value and position of the nearest source."""
+    nr, nc = nband.shape
+    reg = -1
+    reg_d = np.inf
+    best_d0 = np.inf
+    best_d1 = np.inf
+    v0 = 0.0
+    v1 = 0.0
+    sx0 = sy0 = sx1 = sy1 = 0.0
+    found = False
+    for ring in range(2):
+        lo_i = i0 - ring
+        hi_i = i0 + 1 + ring
+        lo_j = j0 - ring
+        hi_j = j0 + 1 + ring
+        for i in range(lo_i, hi_i + 1):
+            if i < 0 or i >= nr:
+                continue
+            for j in range(lo_j, hi_j + 1):
+                if j < 0 or j >= nc:
+                    continue
+                bn = nband[i, j]
+                if bn == b:
+                    found = True
+                    dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
+                    if dn2 < reg_d:
+                        reg_d = dn2
+                        reg = labels[i, j]
+                    s_lo, s_hi = 0, 2
+                elif bn == b - 1:
+                    # a node just below: its upper isoline is this sample's lower one
+                    s_lo, s_hi = 1, 2
+                elif bn == b + 1:
+                    # a node just above: its lower isoline is this sample's upper one
+                    s_lo, s_hi = 0, 1
+                else:
+                    continue
+                for s in range(s_lo, s_hi):
+                    dn = F[s, D, i, j]
+                    if dn == np.inf:
+                        continue
+                    sx = F[s, SX, i, j]
+                    sy = F[s, SY, i, j]
+                    tx = F[s, TX, i, j]
+                    ty = F[s, TY, i, j]
+                    cand = seg_dist(x, y, sx, sy, tx, ty, mode)
+                    if mode != 0 and bn == b:
+                        # the path to the node, with its last leg re-aimed at the sample
+                        cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
+                    side = s if bn == b else 1 - s
+                    if side == 0:
+                        if cand < best_d0:
+                            best_d0 = cand
+                            v0 = F[s, V, i, j]
+                            sx0, sy0 = sx, sy
+                    else:
+                        if cand < best_d1:
+                            best_d1 = cand
+                            v1 = F[s, V, i, j]
+                            sx1, sy1 = sx, sy
+        if found or (best_d0 < np.inf and best_d1 < np.inf):
+            break
+    return reg, best_d0, v0, sx0, sy0, best_d1, v1, sx1, sy1
+
+
+@njit(cache=True, nogil=True)
+def _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
+    """The fill where a side has no source: the region's cap profile (peak: only the lower
+    level is a source; pit: only the upper), the band's middle without a cap."""
+    mid = _mid(levels, b)
+    cv = capv[reg] if reg >= 0 else np.nan
+    if d0 == np.inf and d1 == np.inf:
+        return mid if np.isnan(cv) else cv
+    if d0 == np.inf:  # a pit: only the level above is a source
+        lvl, d, s_other = v1, d1, 1
+    else:  # a peak
+        lvl, d, s_other = v0, d0, 0
+    if np.isnan(cv):
+        return 0.5 * (lvl + mid)
+    dm = min(dmax[reg, s_other], ramp)
+    if dm <= 0.0 or d >= dm:
+        return cv
+    if not smooth:
+        return lvl + (cv - lvl) * d / dm
+    return _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm)
+
+
+@njit(cache=True, nogil=True)
+def _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
+    """The fill between a lower and an upper source: the straight line (fill "linear") or
+    the G1 Hermite profile."""
+    tot = d0 + d1
+    if tot <= 0.0:
+        return 0.5 * (v0 + v1)
+    if not smooth:
+        return (v0 * d1 + v1 * d0) / tot
+    return _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1)
+
+
+@njit(cache=True, nogil=True)
 def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth, bw,
              corr):
     """Fill values at target samples.
@@ -399,7 +527,6 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
     use_corr = corr.shape[0] > 0
     exact = np.zeros(tband.shape[1] if use_corr else 0, np.bool_)
     use_nv = nv.shape[0] == nband.shape[0]
-    nr, nc = nband.shape
     nl = levels.shape[0]
     n, m = tband.shape
     for a in range(n):
@@ -418,115 +545,19 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 out[a, bcol] = _mid(levels, b)
                 continue
             j0 = int(np.floor(x - 0.5))
-            if (use_nv and 0 <= i0 < nr and 0 <= j0 < nc and x == j0 + 0.5 and y == i0 + 0.5
-                    and nband[i0, j0] == b):
-                # the sample is a node (renders at 1x): nv holds this very evaluation
-                out[a, bcol] = nv[i0, j0]
-                continue
-            if use_nv and nr > 1 and nc > 1 and -1 <= i0 < nr and -1 <= j0 < nc:
-                # within half a node of the frame, outside the outermost nodes, the edge
-                # cell extends linearly (as the cell next to it would), so the frame gets
-                # no step where exact evaluation would meet interpolation
-                ic = min(max(i0, 0), nr - 2)
-                jc = min(max(j0, 0), nc - 2)
-                if (nband[ic, jc] == b and nband[ic, jc + 1] == b
-                        and nband[ic + 1, jc] == b and nband[ic + 1, jc + 1] == b):
-                    fx = x - (jc + 0.5)
-                    fy = y - (ic + 0.5)
-                    out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[ic, jc] + fx * nv[ic, jc + 1])
-                                    + fy * ((1.0 - fx) * nv[ic + 1, jc] + fx * nv[ic + 1, jc + 1]))
+            if use_nv:
+                hit, value = _from_nodes(nv, nband, b, x, y, i0, j0)
+                if hit:
+                    out[a, bcol] = value
                     continue
             if use_corr:
                 exact[bcol] = True  # evaluated exactly: corr is added below
-            mid = _mid(levels, b)
-            reg = -1
-            reg_d = np.inf
-            best_d0 = np.inf
-            best_d1 = np.inf
-            v0 = 0.0
-            v1 = 0.0
-            sx0 = sy0 = sx1 = sy1 = 0.0
-            found = False
-            for ring in range(2):
-                lo_i = i0 - ring
-                hi_i = i0 + 1 + ring
-                lo_j = j0 - ring
-                hi_j = j0 + 1 + ring
-                for i in range(lo_i, hi_i + 1):
-                    if i < 0 or i >= nr:
-                        continue
-                    for j in range(lo_j, hi_j + 1):
-                        if j < 0 or j >= nc:
-                            continue
-                        bn = nband[i, j]
-                        if bn == b:
-                            found = True
-                            dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
-                            if dn2 < reg_d:
-                                reg_d = dn2
-                                reg = labels[i, j]
-                            s_lo, s_hi = 0, 2
-                        elif bn == b - 1:
-                            # a node just below: its upper isoline is this sample's lower one
-                            s_lo, s_hi = 1, 2
-                        elif bn == b + 1:
-                            # a node just above: its lower isoline is this sample's upper one
-                            s_lo, s_hi = 0, 1
-                        else:
-                            continue
-                        for s in range(s_lo, s_hi):
-                            dn = F[s, D, i, j]
-                            if dn == np.inf:
-                                continue
-                            sx = F[s, SX, i, j]
-                            sy = F[s, SY, i, j]
-                            tx = F[s, TX, i, j]
-                            ty = F[s, TY, i, j]
-                            cand = seg_dist(x, y, sx, sy, tx, ty, mode)
-                            if mode != 0 and bn == b:
-                                # the path to the node, with its last leg re-aimed at the sample
-                                cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
-                            side = s if bn == b else 1 - s
-                            if side == 0:
-                                if cand < best_d0:
-                                    best_d0 = cand
-                                    v0 = F[s, V, i, j]
-                                    sx0, sy0 = sx, sy
-                            else:
-                                if cand < best_d1:
-                                    best_d1 = cand
-                                    v1 = F[s, V, i, j]
-                                    sx1, sy1 = sx, sy
-                if found or (best_d0 < np.inf and best_d1 < np.inf):
-                    break
-            if best_d0 == np.inf or best_d1 == np.inf:
-                cv = capv[reg] if reg >= 0 else np.nan
-                if best_d0 == np.inf and best_d1 == np.inf:
-                    out[a, bcol] = mid if np.isnan(cv) else cv
-                    continue
-                if best_d0 == np.inf:  # a pit: only the level above is a source
-                    lvl, d, s_other = v1, best_d1, 1
-                else:  # a peak
-                    lvl, d, s_other = v0, best_d0, 0
-                if np.isnan(cv):
-                    out[a, bcol] = 0.5 * (lvl + mid)
-                    continue
-                dm = min(dmax[reg, s_other], ramp)
-                if dm <= 0.0 or d >= dm:
-                    out[a, bcol] = cv
-                elif not smooth:
-                    out[a, bcol] = lvl + (cv - lvl) * d / dm
-                else:
-                    out[a, bcol] = _cap_hermite(bw, nband, b, x, y, s_other,
-                                                sx0, sy0, sx1, sy1, d, lvl, cv, dm)
-                continue
-            tot = best_d0 + best_d1
-            if tot <= 0.0:
-                out[a, bcol] = 0.5 * (v0 + v1)
-            elif not smooth:
-                out[a, bcol] = (v0 * best_d1 + v1 * best_d0) / tot
+            reg, d0, v0, sx0, sy0, d1, v1, sx1, sy1 = _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode)
+            if d0 == np.inf or d1 == np.inf:
+                out[a, bcol] = _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, sy0,
+                                          d1, v1, sx1, sy1, smooth)
             else:
-                out[a, bcol] = _hermite(bw, nband, b, x, y, sx0, sy0, best_d0, v0, sx1, sy1, best_d1, v1)
+                out[a, bcol] = _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth)
         if use_corr:
             for bcol in range(m):
                 if exact[bcol]:
