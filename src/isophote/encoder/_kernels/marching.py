@@ -289,21 +289,9 @@ def _cubic_t(vm, v0, v1, v2, t):
 
 
 @njit(cache=True, nogil=True)
-def march_loops(vals, band, levels, grid, grid_eps):
-    """All isolines of a padded grid as loops, in one call: marching, linking, and the
-    per-point data of encoder/isolines.py.
-
-    grid, grid_eps : the unpadded grid (vals without its ring) and its sample errors.
-    Loops are ordered by, and start at, their segment of smallest start key (as
-    link_loops); loops with no isoline segment (wholly on the frame) are left out and their
-    levels returned. Per point of the kept loops, in travel order: (x, y), the border flag
-    of the segment it starts, its below and above samples (flat padded indices) and t, and
-    the sample errors and gradient magnitudes at the below and above samples (0 on the
-    padding). Returns ok False (and empty arrays) if the segments do not close into loops.
-    """
-    hp, wp = vals.shape
-    n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
-    # link: the segment after s starts on s's end edge, in the cell across it, same level.
+def _link(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp):
+    """The segment after each segment s: the one that starts on s's end edge, in the cell
+    across it, at the same level. Returns (nxt, ok); ok False where one has none."""
     # The links go to a compact array of their own: walking the loops chases them one
     # dependent load after another, in an order that jumps a row of cells at every
     # vertical step, so the fewer bytes they span the fewer cache misses.
@@ -335,20 +323,14 @@ def march_loops(vals, band, levels, grid, grid_eps):
         if nxt[s] < 0:
             ok = False
             break
-    # rec[:, 0] takes t (its bits), so that the gathers below find a segment's data on one
-    # cache line
-    rec_f = rec.view(np.float64)
-    for s in range(n):
-        rec_f[s, 0] = s_t[s]
-    s_t = s_t[:0].copy()
-    # what only linking needed goes (memory: about 150 bytes a segment remain at peak)
-    s_cell = s_cell[:0].copy()
-    s_lev = s_lev[:0].copy()
-    s_ea = s_ea[:0].copy()
-    s_eb = s_eb[:0].copy()
-    cell_start = cell_start[:0].copy()
-    # walk each loop once (from its first segment in scan order), following the links
-    # alone and noting the segments in travel order (a visited segment's link becomes -1)
+    return nxt, ok
+
+
+@njit(cache=True, nogil=True)
+def _walk(nxt, n, ok):
+    """Each loop walked once (from its first segment in scan order), following the links
+    alone: (trav, lp_start, n_loops, m, ok), the segments in travel order and where each
+    loop starts in them. A visited segment's link becomes -1."""
     trav = np.empty(n if ok else 0, np.int64)
     lp_start = np.empty(n + 1, np.int64)
     lp_start[0] = 0
@@ -372,10 +354,14 @@ def march_loops(vals, band, levels, grid, grid_eps):
             lp_start[n_loops] = m
     if not ok:
         n_loops = 0
-    nxt = nxt[:0].copy()
-    # per loop: its smallest start key, where that is, and whether it has an isoline
-    # segment; the segments' t, samples and flags are copied to a buffer in travel order on
-    # the way (gathers in travel order are independent loads, unlike the walk)
+    return trav, lp_start, n_loops, m, ok
+
+
+@njit(cache=True, nogil=True)
+def _loop_keys(rec, trav, lp_start, n_loops, m, ok):
+    """Per loop: its smallest start key, where that is, whether it has an isoline segment,
+    and its level; the segments' t, samples and flags are copied to a buffer tb in travel
+    order on the way (gathers in travel order are independent loads, unlike the walk)."""
     lp_key = np.empty(n_loops, np.int64)
     lp_at = np.empty(n_loops, np.int64)
     lp_inner = np.empty(n_loops, np.bool_)
@@ -401,12 +387,36 @@ def march_loops(vals, band, levels, grid, grid_eps):
         lp_at[a] = at
         lp_inner[a] = inner
         lp_lev[a] = tb[o, 3] >> 1
-    rec = rec[:0].copy()
-    trav = trav[:0].copy()
+    return lp_key, lp_at, lp_inner, lp_lev, tb
+
+
+@njit(cache=True, nogil=True)
+def _crossing_t(vals_f, b, ab, tt, rb, cb, ra, ca, hp, wp):
+    """t of the crossing between the below sample b and the above one ab (flat padded
+    indices at (rb, cb) and (ra, ca)): on the monotone cubic through the samples beyond both
+    ends where b is off the padding (a sample beyond on the padding is replaced by the end's
+    own), else the linear tt."""
+    if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
+        step = ab - b
+        v0 = vals_f[b]
+        v1 = vals_f[ab]
+        r2 = 2 * rb - ra  # the sample before the below one, and after the above one
+        c2 = 2 * cb - ca
+        vm = vals_f[b - step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v0
+        r2 = 2 * ra - rb
+        c2 = 2 * ca - cb
+        v2 = vals_f[ab + step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v1
+        tt = _cubic_t(vm, v0, v1, v2, tt)
+    return tt
+
+
+@njit(cache=True, nogil=True)
+def _gather_points(vals, grid, grid_eps, tb, lp_start, lp_key, lp_at, lp_inner, lp_lev, n_loops):
+    """The kept loops in order of their smallest start key, each rotated to start there;
+    per point, in travel order: (x, y), the border flag of the segment it starts, its below
+    and above samples, t, and the errors and gradients at those samples (march_loops)."""
+    hp, wp = vals.shape
     tb_f = tb.view(np.float64)
-    # the kept loops in order of their smallest start key, each rotated to start there;
-    # per point, in travel order: (x, y), the border flag of the segment it starts, its
-    # below and above samples, t, and the errors and gradients at those samples
     order = np.argsort(lp_key)
     vals_f = vals.ravel()
     n_out = 0
@@ -446,24 +456,11 @@ def march_loops(vals, band, levels, grid, grid_eps):
                 src -= length
             b = tb[src, 1]
             ab = tb[src, 2]
-            tt = tb_f[src, 0]
             rb = b // wp
             cb = b - rb * wp
             ra = ab // wp
             ca = ab - ra * wp
-            if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
-                # the crossing on the monotone cubic through the samples beyond both ends
-                # (a sample beyond on the padding is replaced by the end's own)
-                step = ab - b
-                v0 = vals_f[b]
-                v1 = vals_f[ab]
-                r2 = 2 * rb - ra  # the sample before the below one, and after the above one
-                c2 = 2 * cb - ca
-                vm = vals_f[b - step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v0
-                r2 = 2 * ra - rb
-                c2 = 2 * ca - cb
-                v2 = vals_f[ab + step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v1
-                tt = _cubic_t(vm, v0, v1, v2, tt)
+            tt = _crossing_t(vals_f, b, ab, tb_f[src, 0], rb, cb, ra, ca, hp, wp)
             # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
             points[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
             points[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
@@ -484,4 +481,40 @@ def march_loops(vals, band, levels, grid, grid_eps):
             m += 1
         kl += 1
         offsets[kl] = m
-    return ok, points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets, frame_levels
+    return points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets, frame_levels
+
+
+@njit(cache=True, nogil=True)
+def march_loops(vals, band, levels, grid, grid_eps):
+    """All isolines of a padded grid as loops, in one call: marching, linking, and the
+    per-point data of encoder/isolines.py.
+
+    grid, grid_eps : the unpadded grid (vals without its ring) and its sample errors.
+    Loops are ordered by, and start at, their segment of smallest start key (as
+    link_loops); loops with no isoline segment (wholly on the frame) are left out and their
+    levels returned. Per point of the kept loops, in travel order: (x, y), the border flag
+    of the segment it starts, its below and above samples (flat padded indices) and t, and
+    the sample errors and gradient magnitudes at the below and above samples (0 on the
+    padding). Returns ok False (and empty arrays) if the segments do not close into loops.
+    """
+    hp, wp = vals.shape
+    n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
+    nxt, ok = _link(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp)
+    # rec[:, 0] takes t (its bits), so that the gathers below find a segment's data on one
+    # cache line
+    rec_f = rec.view(np.float64)
+    for s in range(n):
+        rec_f[s, 0] = s_t[s]
+    # what only linking needed goes (memory: about 150 bytes a segment remain at peak)
+    s_t = s_t[:0].copy()
+    s_cell = s_cell[:0].copy()
+    s_lev = s_lev[:0].copy()
+    s_ea = s_ea[:0].copy()
+    s_eb = s_eb[:0].copy()
+    cell_start = cell_start[:0].copy()
+    trav, lp_start, n_loops, m, ok = _walk(nxt, n, ok)
+    nxt = nxt[:0].copy()
+    lp_key, lp_at, lp_inner, lp_lev, tb = _loop_keys(rec, trav, lp_start, n_loops, m, ok)
+    rec = rec[:0].copy()
+    trav = trav[:0].copy()
+    return (ok,) + _gather_points(vals, grid, grid_eps, tb, lp_start, lp_key, lp_at, lp_inner, lp_lev, n_loops)
