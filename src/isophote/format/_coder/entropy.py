@@ -279,6 +279,23 @@ def _enc_contours(st, out, probs, level, nseg, parent):
 
 
 @njit(cache=True, nogil=True)
+def _predict_next(ax, ay, pdx, pdy, layout):
+    """The prediction of a segment's next anchor N: A (layout 2), A + half the previous
+    chord (pdx, pdy) from layout 3."""
+    if layout >= 3:
+        return ax + (pdx >> 1), ay + (pdy >> 1)
+    return ax, ay
+
+
+@njit(cache=True, nogil=True)
+def _chord(ax, ay, nx, ny):
+    """A segment's chord A -> N and the bucket of its longer component."""
+    dx = nx - ax
+    dy = ny - ay
+    return dx, dy, _bucket(max(abs(dx), abs(dy)))
+
+
+@njit(cache=True, nogil=True)
 def _enc_chain(st, out, probs, pts, border, t, s0, n, g, layout, px0, py0, prev_h):
     """One contour's points (its n segments from pts[t], flags from border[s0]): P0 against
     the previous contour's, then per segment its border flag, the next anchor N against A
@@ -317,20 +334,12 @@ def _enc_chain(st, out, probs, pts, border, t, s0, n, g, layout, px0, py0, prev_
                 f = _anchor_flags(nx, ny, g)
                 _enc_flag4(st, out, probs, prev_f, f)
             prev_f = f
-            bx = ax  # N's prediction: A (layout 2), A + half the previous chord (3)
-            by = ay
-            if layout >= 3:
-                bx += pdx >> 1
-                by += pdy >> 1
+            bx, by = _predict_next(ax, ay, pdx, pdy, layout)
             _enc_coord(st, out, probs, f & 1, M_DCX + b * NB + dbk, M_DFX + b * NB + dbk, nx, bx, g, half_g)
             ybk = _bucket(nx - ax)
             _enc_coord(st, out, probs, f & 2, M_DCY + b * NB + ybk, M_DFY + b * NB + ybk, ny, by, g, half_g)
-        dx = nx - ax
-        dy = ny - ay
-        pdx = dx
-        pdy = dy
-        db = _bucket(max(abs(dx), abs(dy)))
-        dbk = db
+        dx, dy, db = _chord(ax, ay, nx, ny)
+        pdx, pdy, dbk = dx, dy, db
         hx = pts[t + 3 * i + 1, 0] - ax - _rnd3(dx)
         hy = pts[t + 3 * i + 1, 1] - ay - _rnd3(dy)
         gx = pts[t + 3 * i + 2, 0] - nx + _rnd3(dx)
@@ -497,11 +506,7 @@ def _dec_chain(ds, inp, probs, q, border, t, s0, n, g, layout, lim, px0, py0, pr
             if g > 0:
                 f = _dec_flag4(ds, inp, probs, prev_f)
             prev_f = f
-            bx = ax
-            by = ay
-            if layout >= 3:
-                bx += pdx >> 1
-                by += pdy >> 1
+            bx, by = _predict_next(ax, ay, pdx, pdy, layout)
             nx = _dec_coord(ds, inp, probs, f & 1, M_DCX + b * NB + dbk, M_DFX + b * NB + dbk, bx, g, half_g)
             ybk = _bucket(nx - ax)
             ny = _dec_coord(ds, inp, probs, f & 2, M_DCY + b * NB + ybk, M_DFY + b * NB + ybk, by, g, half_g)
@@ -510,12 +515,8 @@ def _dec_chain(ds, inp, probs, q, border, t, s0, n, g, layout, lim, px0, py0, pr
         else:
             nx = x0
             ny = y0
-        dx = nx - ax
-        dy = ny - ay
-        pdx = dx
-        pdy = dy
-        db = _bucket(max(abs(dx), abs(dy)))
-        dbk = db
+        dx, dy, db = _chord(ax, ay, nx, ny)
+        pdx, pdy, dbk = dx, dy, db
         hx, hy, gx, gy, sh = _dec_handles(ds, inp, probs, layout, b, db, dx, dy, prev_h)
         if sh < 0:
             return E_SHIFT, x0, y0, prev_h
