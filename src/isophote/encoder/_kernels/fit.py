@@ -101,27 +101,43 @@ QUANT = float(_GRID)
 # ---------------------------------------------------------------------------------------
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _ends(q, i, j):
+    """The span's end points P0 = q[i, 2:4] and P3 = q[j, 2:4] (the joints)."""
+    return q[i, 2], q[i, 3], q[j, 2], q[j, 3]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _span(q, i, j, c):
+    """The span's ends and the differences of its four controls (P0, c, P3): the coefficients
+    of the first derivative, B'(t) = 3 (s^2 d0 + 2 s t d1 + t^2 d2)."""
+    p0x, p0y, p3x, p3y = _ends(q, i, j)
+    return p0x, p0y, p3x, p3y, c[0] - p0x, c[1] - p0y, c[2] - c[0], c[3] - c[1], p3x - c[2], p3y - c[3]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _bernstein(s, t):
+    """The cubic Bernstein weights at t (s = 1 - t)."""
+    return s * s * s, 3.0 * s * s * t, 3.0 * s * t * t, t * t * t
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _velocity(s, t, d0x, d0y, d1x, d1y, d2x, d2y):
+    """B'(t) from the control differences (_span)."""
+    return (3.0 * (s * s * d0x + 2.0 * s * t * d1x + t * t * d2x),
+            3.0 * (s * s * d0y + 2.0 * s * t * d1y + t * t * d2y))
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _lsq(q, w, i, j, u, c):
     """Least-squares inner controls of the span i..j for parameters u; writes c[0:4]."""
-    p0x = q[i, 2]
-    p0y = q[i, 3]
-    p3x = q[j, 2]
-    p3y = q[j, 3]
-    a11 = 0.0
-    a12 = 0.0
-    a22 = 0.0
-    r1x = 0.0
-    r1y = 0.0
-    r2x = 0.0
-    r2y = 0.0
+    p0x, p0y, p3x, p3y = _ends(q, i, j)
+    a11 = a12 = a22 = 0.0  # the normal equations (symmetric) and the right-hand sides
+    r1x = r1y = r2x = r2y = 0.0
     for k in range(i + 1, j):
         t = u[k]
         s = 1.0 - t
-        b0 = s * s * s
-        b1 = 3.0 * s * s * t
-        b2 = 3.0 * s * t * t
-        b3 = t * t * t
+        b0, b1, b2, b3 = _bernstein(s, t)
         wk = w[k]
         rx = q[k, 0] - b0 * p0x - b3 * p3x
         ry = q[k, 1] - b0 * p0y - b3 * p3y
@@ -153,36 +169,17 @@ def _tdm(q, w, i, j, u, c, a):
     """One Gauss-Newton step of tangent distance minimisation for the inner controls c
     (updated in place), linearised at the foot parameters u on the current curve. a is a
     (4, 5) scratch array for the normal equations."""
-    p0x = q[i, 2]
-    p0y = q[i, 3]
-    p3x = q[j, 2]
-    p3y = q[j, 3]
-    d0x = c[0] - p0x
-    d0y = c[1] - p0y
-    d1x = c[2] - c[0]
-    d1y = c[3] - c[1]
-    d2x = p3x - c[2]
-    d2y = p3y - c[3]
+    p0x, p0y, p3x, p3y, d0x, d0y, d1x, d1y, d2x, d2y = _span(q, i, j, c)
     # A = sum w (b b^T kron M), M = TANGENTIAL I + (1 - TANGENTIAL) n n^T; unknowns
     # (c1x, c1y, c2x, c2y)
-    s11xx = 0.0
-    s11xy = 0.0
-    s11yy = 0.0
-    s12xx = 0.0
-    s12xy = 0.0
-    s12yy = 0.0
-    s22xx = 0.0
-    s22xy = 0.0
-    s22yy = 0.0
-    r1x = 0.0
-    r1y = 0.0
-    r2x = 0.0
-    r2y = 0.0
+    s11xx = s11xy = s11yy = 0.0
+    s12xx = s12xy = s12yy = 0.0
+    s22xx = s22xy = s22yy = 0.0
+    r1x = r1y = r2x = r2y = 0.0
     for k in range(i + 1, j):
         t = u[k]
         s = 1.0 - t
-        gx = 3.0 * (s * s * d0x + 2.0 * s * t * d1x + t * t * d2x)
-        gy = 3.0 * (s * s * d0y + 2.0 * s * t * d1y + t * t * d2y)
+        gx, gy = _velocity(s, t, d0x, d0y, d1x, d1y, d2x, d2y)
         gl = gx * gx + gy * gy
         if gl > 0.0:
             mxx = TANGENTIAL + (1.0 - TANGENTIAL) * gy * gy / gl
@@ -192,10 +189,7 @@ def _tdm(q, w, i, j, u, c, a):
             mxx = 1.0
             myy = 1.0
             mxy = 0.0
-        b0 = s * s * s
-        b1 = 3.0 * s * s * t
-        b2 = 3.0 * s * t * t
-        b3 = t * t * t
+        b0, b1, b2, b3 = _bernstein(s, t)
         wk = w[k]
         rx = q[k, 0] - b0 * p0x - b3 * p3x
         ry = q[k, 1] - b0 * p0y - b3 * p3y
@@ -267,17 +261,8 @@ def _newton(q, w, ed, i, j, u, c, limit):
     the largest (|B(u[k]) - q[k]| / tol[k])^2 at the new parameters, stopping early (with
     the rest of u untouched) once it exceeds limit; notes each |B(u[k]) - q[k]|^2 in
     ed[k, 4] for _bulge_ok."""
-    p0x = q[i, 2]
-    p0y = q[i, 3]
-    p3x = q[j, 2]
-    p3y = q[j, 3]
     # first and second derivative coefficients
-    d0x = c[0] - p0x
-    d0y = c[1] - p0y
-    d1x = c[2] - c[0]
-    d1y = c[3] - c[1]
-    d2x = p3x - c[2]
-    d2y = p3y - c[3]
+    p0x, p0y, p3x, p3y, d0x, d0y, d1x, d1y, d2x, d2y = _span(q, i, j, c)
     e0x = d1x - d0x
     e0y = d1y - d0y
     e1x = d2x - d1x
@@ -286,14 +271,10 @@ def _newton(q, w, ed, i, j, u, c, limit):
     for k in range(i + 1, j):
         t = u[k]
         s = 1.0 - t
-        b0 = s * s * s
-        b1 = 3.0 * s * s * t
-        b2 = 3.0 * s * t * t
-        b3 = t * t * t
+        b0, b1, b2, b3 = _bernstein(s, t)
         dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
         dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
-        gx = 3.0 * (s * s * d0x + 2.0 * s * t * d1x + t * t * d2x)
-        gy = 3.0 * (s * s * d0y + 2.0 * s * t * d1y + t * t * d2y)
+        gx, gy = _velocity(s, t, d0x, d0y, d1x, d1y, d2x, d2y)
         hx = 6.0 * (s * e0x + t * e1x)
         hy = 6.0 * (s * e0y + t * e1y)
         num = dx * gx + dy * gy
@@ -308,10 +289,7 @@ def _newton(q, w, ed, i, j, u, c, limit):
             t = u[k - 1]
         u[k] = t
         s = 1.0 - t
-        b0 = s * s * s
-        b1 = 3.0 * s * s * t
-        b2 = 3.0 * s * t * t
-        b3 = t * t * t
+        b0, b1, b2, b3 = _bernstein(s, t)
         dx = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x - q[k, 0]
         dy = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y - q[k, 1]
         d2 = dx * dx + dy * dy
@@ -390,10 +368,7 @@ def _bulge_ok(q, ed, i, j, u, c):
     along the chord). Edges are searched outwards from the interval's own edge, after the
     edge that served the previous pair.
     """
-    p0x = q[i, 2]
-    p0y = q[i, 3]
-    p3x = q[j, 2]
-    p3y = q[j, 3]
+    p0x, p0y, p3x, p3y = _ends(q, i, j)
     # |B''(t)| <= curv, so between samples delta apart in t the curve is within
     # curv * delta^2 / 8 of their chord
     ax = p0x - 2.0 * c[0] + c[2]
@@ -432,10 +407,7 @@ def _bulge_ok(q, ed, i, j, u, c):
         for m in range(0, ns + 2):
             t = u[k] + du * m / (ns + 1) if 0 < m <= ns else (u[k] if m == 0 else u[k + 1])
             s = 1.0 - t
-            b0 = s * s * s
-            b1 = 3.0 * s * s * t
-            b2 = 3.0 * s * t * t
-            b3 = t * t * t
+            b0, b1, b2, b3 = _bernstein(s, t)
             x = b0 * p0x + b1 * c[0] + b2 * c[2] + b3 * p3x
             y = b0 * p0y + b1 * c[1] + b2 * c[3] + b3 * p3y
             if m > 0 and (cur < 0 or not _within(q, ed, cur, x, y, margin)):
