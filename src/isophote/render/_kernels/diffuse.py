@@ -378,7 +378,7 @@ def _mid(levels, b):
     return 0.5 * (lo_b + hi_b)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _from_nodes(nv, nband, b, x, y, i0, j0):
     """The sample (x, y) of band b read from the node fill nv, where it can be: a node itself
     (renders at 1x), or in a cell whose four nodes share its band (no isoline crosses it;
@@ -402,7 +402,7 @@ def _from_nodes(nv, nband, b, x, y, i0, j0):
     return False, 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
     """The exact evaluation's search around the sample (x, y) of band b: the 2 x 2 nodes of its
     cell, then (unless they hold a node of band b, or sources of both sides) the 4 x 4 around.
@@ -472,7 +472,7 @@ def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
     return reg, best_d0, v0, sx0, sy0, best_d1, v1, sx1, sy1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
     """The fill where a side has no source: the region's cap profile (peak: only the lower
     level is a source; pit: only the upper), the band's middle without a cap."""
@@ -494,7 +494,7 @@ def _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, s
     return _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
     """The fill between a lower and an upper source: the straight line (fill "linear") or
     the G1 Hermite profile."""
