@@ -46,14 +46,14 @@ def sha(b) -> str:
 
 
 def encoded_bytes(vi) -> bytes:
-    import os
-    import tempfile
+    """The file's bytes without its ``meta`` (how the file was made: the isophote version and
+    options, which the encoder records since the fingerprints were first taken), so that the
+    fingerprint says whether the contours and the coding changed."""
+    from dataclasses import replace
 
-    with tempfile.TemporaryDirectory() as d:
-        p = os.path.join(d, "x.isoph")
-        vi.save(p)
-        with open(p, "rb") as f:
-            return f.read()
+    from isophote.format.isoph import dumps
+
+    return dumps(replace(vi, meta={}))
 
 
 def fingerprints(quick: bool = False) -> dict:

@@ -85,7 +85,7 @@ AFTER_SEARCH = """    if mode == 0 or mode == 2 or mode == 4:
         # interior"""
 PATCHES = (
     ("from ...shared.grid import", "from isophote.shared.grid import"),
-    ("from ...shared.grid_ref import", "from isophote.shared.grid_ref import"),
+    ("from .bezier import", "from isophote.encoder._kernels.bezier import"),
     ("ca, cb, coarsen\n):", "ca, cb, coarsen, orc, ob, mode, stats, probe\n):"),
     ("        step = 0\n        while True:", BEFORE_LOOP),
     ("            else:\n                if hi - lo <= 1:\n                    break\n                j = (lo + hi) // 2",

@@ -622,7 +622,7 @@ def test_cubic_base_interpolates_cubics_exactly():
 
 
 def test_map_pixels_matches_its_numpy_twin():
-    from isophote.encoder.mapping import map_pixels_ref
+    from isophote.encoder.mapping_ref import map_pixels as map_pixels_ref
 
     rng = np.random.default_rng(11)
     for k in range(40):
@@ -748,7 +748,8 @@ def test_joints_move_onto_samples_and_levels_never_meet_there(monkeypatch):
 def test_joint_reach_matches_its_twin(which):
     """The compiled rule (_kernels/anchors.py) equals its NumPy twin, and grants a move to
     a good share of the crossings of a photograph, never beyond 0.75 of a tolerance."""
-    from isophote.encoder._kernels.anchors import joint_reach, joint_reach_ref
+    from isophote.encoder._kernels.anchors import joint_reach
+    from isophote.encoder._kernels.anchors_ref import joint_reach as joint_reach_ref
 
     rng = np.random.default_rng(5)
     img = {

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from isophote.encoder._kernels.fit import fit_polyline_ref
+from isophote.encoder._kernels.fit_ref import fit_polyline as fit_polyline_ref
 from isophote.encoder.fit import chain_distance, fit_many, fit_polyline
 
 # ---------------------------------------------------------------------------------------

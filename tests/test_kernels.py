@@ -9,22 +9,26 @@ import numpy as np
 import pytest
 
 from isophote.render._kernels.diffuse import seed as seed_fields
-from isophote.render._kernels.diffuse import (
-    D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, label_nodes, label_nodes_ref, offsets, propagate,
-    propagate_ref,
-)
+from isophote.render._kernels.diffuse import D, MODE_GEODESIC, MODE_MANHATTAN, NF, V, label_nodes, offsets, propagate
+from isophote.render._kernels.diffuse_ref import label_nodes as label_nodes_ref, propagate as propagate_ref
+from isophote.encoder._kernels.enclose_ref import innermost_enclosing as innermost_enclosing_ref
 from isophote.encoder._kernels.enclose import (
-    bucket_rows, innermost_enclosing, innermost_enclosing_ref, innermost_enclosing_rows,
+    bucket_rows, innermost_enclosing, innermost_enclosing_rows,
 )
-from isophote.encoder._kernels.marching import (
-    _cubic_t, cubic_t_ref, march, march_loops, march_loops_ref, march_ref,
+from isophote.encoder._kernels.marching import _cubic_t, march, march_loops
+from isophote.encoder._kernels.marching_ref import (
+    _cubic_t as cubic_t_ref, march as march_ref, march_loops as march_loops_ref,
 )
-from isophote.render._kernels.raster import rasterise, rasterise_ref
-from isophote.render._kernels.resample import bilinear_at, bilinear_at_ref
-from isophote.render._kernels.sharpen import correction, correction_ref
-from isophote.encoder._kernels.regions import (
-    cap_sums, cap_sums_ref, label_regions, label_regions_ref, region_levels, region_levels_ref,
-    region_stats, region_stats_ref,
+from isophote.render._kernels.raster import rasterise
+from isophote.render._kernels.raster_ref import rasterise as rasterise_ref
+from isophote.render._kernels.resample import bilinear_at
+from isophote.render._kernels.resample_ref import bilinear_at as bilinear_at_ref
+from isophote.render._kernels.sharpen import correction
+from isophote.render._kernels.sharpen_ref import correction as correction_ref
+from isophote.encoder._kernels.regions import cap_sums, label_regions, region_levels, region_stats
+from isophote.encoder._kernels.regions_ref import (
+    cap_sums as cap_sums_ref, label_regions as label_regions_ref, region_levels as region_levels_ref,
+    region_stats as region_stats_ref,
 )
 from isophote.encoder.isolines import pad_grid
 from isophote.encoder.levels import bands
@@ -567,7 +571,7 @@ def test_propagate_matches_its_twin_on_seeded_fields(seed, mode):
 
 
 class _CountingNumpy:
-    """Stands in for numpy inside _kernels.diffuse: counts np.hypot calls (one per offset and
+    """Stands in for numpy inside _kernels.diffuse_ref: counts np.hypot calls (one per offset and
     sweep of propagate_ref in the geodesic mode)."""
 
     def __init__(self):
@@ -582,10 +586,10 @@ class _CountingNumpy:
 
 
 def test_propagate_ref_converges_on_float32_fields(monkeypatch):
-    from isophote.render._kernels import diffuse
+    from isophote.render._kernels import diffuse_ref
 
     counter = _CountingNumpy()
-    monkeypatch.setattr(diffuse, "np", counter)
+    monkeypatch.setattr(diffuse_ref, "np", counter)
     F = empty_field(2, 3)
     F[0, D, 0, 0] = 0.0  # one source; node (1, 2) is a knight's move away: sqrt(5)
     out = propagate_ref(F, np.zeros((2, 3), np.int16), offsets(MODE_GEODESIC), MODE_GEODESIC, max_iter=50)

@@ -6,7 +6,7 @@ import pytest
 
 import isophote
 from isophote.encoder.noise import CAP_FRACTION, local_noise, prepare_plane, residual, sample_error
-from isophote.encoder._kernels.prune import prune_ref
+from isophote.encoder._kernels.prune_ref import prune as prune_ref
 from isophote.encoder.prune import prune_extrema
 from isophote.imageio import dct_quantisation_error, read_image
 from isophote.options import EncodeOptions

@@ -147,26 +147,11 @@ def map_pixels(channel, eps, p=0.5, scale=64.0, cubic=CUBIC):
     Notes
     -----
     Computed by a compiled kernel that fuses both passes and the padding;
-    :func:`map_pixels_ref` is its NumPy twin (same floating-point expressions, same result).
+    mapping_ref.map_pixels is its NumPy twin (same floating-point expressions, same result).
     """
     v = np.ascontiguousarray(channel, dtype=np.float64)
     e = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, dtype=np.float64), v.shape))
     return _map_kernel(v, e, float(p), float(scale), float(cubic))
-
-
-def map_pixels_ref(channel, eps, p=0.5, scale=64.0, cubic=CUBIC):
-    """NumPy twin of :func:`map_pixels`."""
-    v = np.asarray(channel, dtype=np.float64)
-    e = np.broadcast_to(np.asarray(eps, dtype=np.float64), v.shape).copy()
-    mid, mid_e = carrato_midpoints(v, e, p, scale, axis=1, cubic=cubic)
-    v1 = _interleave(v, mid, 1)
-    e1 = _interleave(e, mid_e, 1)
-    mid, mid_e = carrato_midpoints(v1, e1, p, scale, axis=0, cubic=cubic)
-    g = _interleave(v1, mid, 0)
-    ge = _interleave(e1, mid_e, 0)
-    g = np.pad(g, 1, mode="edge")
-    ge = np.pad(ge, 1, mode="edge")
-    return g, ge
 
 
 # ---------------------------------------------------------------------------------------

@@ -14,7 +14,8 @@ the coordinates once); a channel's segments are an (S, 4, 2) array with a border
 from .areas import polyline_areas, segment_moments, signed_areas
 from .bezier import evaluate, evaluate_grid, map_cubics, split, subsegment
 from .chains import chain_segments, join_segments, line_segment, segment_starts, segments
-from .flatten import MAX_STEPS, contour_edges, flatten, flatten_ref
+from .flatten import MAX_STEPS, contour_edges, flatten
+from .flatten_ref import flatten as flatten_ref
 from .pen import (AreaPen, BoundsPen, ControlBoundsPen, EdgesPen, Pen, RecordingPen, SegmentPen,
                   TransformPen, draw, draw_segments)
 

@@ -70,29 +70,31 @@ def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, ro
     return out
 
 
-def innermost_enclosing_ref(px, py, exclude, loops, area, level):
-    """Plain twin: loops is a list of (n, 2) closed polylines; O(points x all segments)."""
-    out = []
-    for q in range(len(px)):
-        best = -1
-        for i, lp in enumerate(loops):
-            if i == exclude[q]:
-                continue
-            a, b = lp, np.roll(lp, -1, axis=0)
-            ya, yb = a[:, 1], b[:, 1]
-            cross = ((ya <= py[q]) & (py[q] < yb)) | ((yb <= py[q]) & (py[q] < ya))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                xc = a[:, 0] + (py[q] - ya) * (b[:, 0] - a[:, 0]) / (yb - ya)
-            sel = cross & (xc < px[q])
-            w = int(np.sum(np.where(yb[sel] > ya[sel], 1, -1)))
-            if w != 0:
-                if best < 0 or abs(area[i]) < abs(area[best]) or (abs(area[i]) == abs(area[best]) and level[i] > level[best]):
-                    best = i
-        out.append(best)
-    return np.asarray(out, np.int64)
-
-
 SWEEP_NUDGE = 2.0**-21  # scanlines sit this far below the sample rows (see _kernels/raster.py)
+
+
+@njit(cache=True, nogil=True)
+def _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, y):
+    """The crossings of bucket k's segments with the line y (half-open in y): per crossing
+    its x, loop, direction (+1 down) and place in row_order; returns (xs, ls, ds, ps, n)."""
+    a0 = row_start[k]
+    a1 = row_start[k + 1]
+    xs = np.empty(a1 - a0)
+    ls = np.empty(a1 - a0, np.int64)
+    ds = np.empty(a1 - a0, np.int64)
+    ps = np.empty(a1 - a0, np.int64)
+    n = 0
+    for a in range(a0, a1):
+        s = row_order[a]
+        ya = y0[s]
+        yb = y1[s]
+        if (ya <= y < yb) or (yb <= y < ya):
+            xs[n] = x0[s] + (y - ya) * (x1[s] - x0[s]) / (yb - ya)
+            ls[n] = seg_loop[s]
+            ds[n] = 1 if yb > ya else -1
+            ps[n] = a
+            n += 1
+    return xs, ls, ds, ps, n
 
 
 @njit(cache=True, nogil=True)
@@ -113,19 +115,7 @@ def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loo
     on_stack = np.zeros(n_loops, np.bool_)
     for k in range(n_rows):
         yc = 0.5 * k + SWEEP_NUDGE
-        a0 = row_start[k]
-        a1 = row_start[k + 1]
-        xs = np.empty(a1 - a0)
-        ls = np.empty(a1 - a0, np.int64)
-        n = 0
-        for a in range(a0, a1):
-            s = row_order[a]
-            ya = y0[s]
-            yb = y1[s]
-            if (ya <= yc < yb) or (yb <= yc < ya):
-                xs[n] = x0[s] + (yc - ya) * (x1[s] - x0[s]) / (yb - ya)
-                ls[n] = seg_loop[s]
-                n += 1
+        xs, ls, _, _, n = _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, yc)
         order = np.argsort(xs[:n], kind="mergesort")
         sp = 0
         i = 0
@@ -204,25 +194,7 @@ def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_star
         g1 = g0
         while g1 < nq and kq[o[g1]] == k and py[o[g1]] == yq:
             g1 += 1
-        a0 = row_start[k]
-        a1 = row_start[k + 1]
-        xs = np.empty(a1 - a0)
-        ls = np.empty(a1 - a0, np.int64)
-        ds = np.empty(a1 - a0, np.int64)
-        ps = np.empty(a1 - a0, np.int64)
-        nc = 0
-        for a in range(a0, a1):
-            s = row_order[a]
-            ya = y0[s]
-            yb = y1[s]
-            if ya == yb:
-                continue
-            if (ya <= yq < yb) or (yb <= yq < ya):
-                xs[nc] = x0[s] + (yq - ya) * (x1[s] - x0[s]) / (yb - ya)
-                ls[nc] = seg_loop[s]
-                ds[nc] = 1 if yb > ya else -1
-                ps[nc] = a
-                nc += 1
+        xs, ls, ds, ps, nc = _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, yq)
         order = np.argsort(xs[:nc])
         nm = 0
         nt = 0

@@ -1,4 +1,4 @@
-"""Marching squares over all levels of a channel in one scan (kernel + NumPy twin).
+"""Marching squares over all levels of a channel in one scan (kernel; its NumPy twin is marching_ref.py).
 
 Input is a padded grid: the outer ring (row 0, last row, column 0, last column) is padding
 that lies below every level (band 0), so every contour closes; segments in cells that touch
@@ -222,86 +222,9 @@ def march(vals, band, levels):
     )
 
 
-def march_ref(vals, band, levels):
-    """Plain NumPy twin of :func:`march`: vectorised per level over all cells.
-
-    Returns the same segments, in (level, key) order rather than scan order.
-    """
-    vals = np.asarray(vals, np.float64)
-    band = np.asarray(band, np.int64)
-    hp, wp = vals.shape
-    nl = len(levels)
-    r, c = np.meshgrid(np.arange(hp - 1), np.arange(wp - 1), indexing="ij")
-    r, c = r.ravel(), c.ravel()
-    rr = [r + dr for dr in (0, 0, 1, 1)]
-    cc = [c + dc for dc in (0, 1, 1, 0)]
-    v = [vals[rr[k], cc[k]] for k in range(4)]
-    pad = [(rr[k] == 0) | (cc[k] == 0) | (rr[k] == hp - 1) | (cc[k] == wp - 1) for k in range(4)]
-    anypad = pad[0] | pad[1] | pad[2] | pad[3]
-    idx = [rr[k] * wp + cc[k] for k in range(4)]
-
-    def edge_id(k, sel):
-        r_, c_ = r[sel], c[sel]
-        return {
-            0: r_ * wp + c_,
-            1: hp * wp + r_ * wp + c_ + 1,
-            2: (r_ + 1) * wp + c_,
-            3: hp * wp + r_ * wp + c_,
-        }[k]
-
-    rows = []
-    for l in range(nl):
-        ab = [band[rr[k], cc[k]] > l for k in range(4)]
-        den = v[0] + v[2] - v[1] - v[3]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = (v[0] * v[2] - v[1] * v[3]) / den
-        saddle = (ab[0] == ab[2]) & (ab[1] == ab[3]) & (ab[0] != ab[1])
-        centre_above = s >= levels[l]
-        pairs = []  # (selection mask, edge a, edge b) with corners a+1..b on the left = above
-        # saddles: cut off each corner k that differs from the centre
-        for k in range(4):
-            ep = (k + 3) % 4
-            sel = saddle & (ab[k] != centre_above)
-            pairs.append((sel & ab[k], ep, k))
-            pairs.append((sel & ~ab[k], k, ep))
-        # two crossings: the crossing edges ea < eb, oriented by corner ea+1
-        crossing = [ab[k] != ab[(k + 1) % 4] for k in range(4)]
-        ncross = sum(x.astype(int) for x in crossing)
-        for ea in range(4):
-            for eb in range(ea + 1, 4):
-                sel = (ncross == 2) & crossing[ea] & crossing[eb]
-                up = ab[(ea + 1) % 4]
-                pairs.append((sel & up, ea, eb))
-                pairs.append((sel & ~up, eb, ea))
-        for sel, ea, eb in pairs:
-            if not sel.any():
-                continue
-            ka, kb = ea, (ea + 1) % 4
-            # below corner first
-            below_is_a = ~ab[ka][sel]
-            va = np.where(below_is_a, v[ka][sel], v[kb][sel])
-            vb = np.where(below_is_a, v[kb][sel], v[ka][sel])
-            ia = np.where(below_is_a, idx[ka][sel], idx[kb][sel])
-            ib = np.where(below_is_a, idx[kb][sel], idx[ka][sel])
-            pa = np.where(below_is_a, pad[ka][sel], pad[kb][sel])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = np.where(pa, 1.0, (levels[l] - va) / (vb - va))
-            rows.append(dict(
-                skey=edge_id(ea, sel) * nl + l, ekey=edge_id(eb, sel) * nl + l,
-                level=np.full(sel.sum(), l, np.int32), border=anypad[sel],
-                below=ia, above=ib, t=t,
-            ))
-    if not rows:
-        return {k: np.zeros(0, dt) for k, dt in (("skey", np.int64), ("ekey", np.int64), ("level", np.int32),
-                                                ("border", bool), ("below", np.int64), ("above", np.int64), ("t", float))}
-    out = {k: np.concatenate([row[k] for row in rows]) for k in rows[0]}
-    order = np.lexsort((out["skey"],))
-    return {k: a[order] for k, a in out.items()}
-
-
 # ---------------------------------------------------------------------------------------
 # Marching, linking and the per-point gathers of encoder/isolines.py in one kernel; its twin
-# is march_ref, a plain walk along the keys and NumPy gathers (march_loops_ref).
+# (marching_ref.march_loops) is marching_ref.march, a plain walk along the keys, and NumPy gathers.
 # ---------------------------------------------------------------------------------------
 
 
@@ -366,21 +289,9 @@ def _cubic_t(vm, v0, v1, v2, t):
 
 
 @njit(cache=True, nogil=True)
-def march_loops(vals, band, levels, grid, grid_eps):
-    """All isolines of a padded grid as loops, in one call: marching, linking, and the
-    per-point data of encoder/isolines.py.
-
-    grid, grid_eps : the unpadded grid (vals without its ring) and its sample errors.
-    Loops are ordered by, and start at, their segment of smallest start key (as
-    link_loops); loops with no isoline segment (wholly on the frame) are left out and their
-    levels returned. Per point of the kept loops, in travel order: (x, y), the border flag
-    of the segment it starts, its below and above samples (flat padded indices) and t, and
-    the sample errors and gradient magnitudes at the below and above samples (0 on the
-    padding). Returns ok False (and empty arrays) if the segments do not close into loops.
-    """
-    hp, wp = vals.shape
-    n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
-    # link: the segment after s starts on s's end edge, in the cell across it, same level.
+def _link(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp):
+    """The segment after each segment s: the one that starts on s's end edge, in the cell
+    across it, at the same level. Returns (nxt, ok); ok False where one has none."""
     # The links go to a compact array of their own: walking the loops chases them one
     # dependent load after another, in an order that jumps a row of cells at every
     # vertical step, so the fewer bytes they span the fewer cache misses.
@@ -412,20 +323,14 @@ def march_loops(vals, band, levels, grid, grid_eps):
         if nxt[s] < 0:
             ok = False
             break
-    # rec[:, 0] takes t (its bits), so that the gathers below find a segment's data on one
-    # cache line
-    rec_f = rec.view(np.float64)
-    for s in range(n):
-        rec_f[s, 0] = s_t[s]
-    s_t = s_t[:0].copy()
-    # what only linking needed goes (memory: about 150 bytes a segment remain at peak)
-    s_cell = s_cell[:0].copy()
-    s_lev = s_lev[:0].copy()
-    s_ea = s_ea[:0].copy()
-    s_eb = s_eb[:0].copy()
-    cell_start = cell_start[:0].copy()
-    # walk each loop once (from its first segment in scan order), following the links
-    # alone and noting the segments in travel order (a visited segment's link becomes -1)
+    return nxt, ok
+
+
+@njit(cache=True, nogil=True)
+def _walk(nxt, n, ok):
+    """Each loop walked once (from its first segment in scan order), following the links
+    alone: (trav, lp_start, n_loops, m, ok), the segments in travel order and where each
+    loop starts in them. A visited segment's link becomes -1."""
     trav = np.empty(n if ok else 0, np.int64)
     lp_start = np.empty(n + 1, np.int64)
     lp_start[0] = 0
@@ -449,10 +354,14 @@ def march_loops(vals, band, levels, grid, grid_eps):
             lp_start[n_loops] = m
     if not ok:
         n_loops = 0
-    nxt = nxt[:0].copy()
-    # per loop: its smallest start key, where that is, and whether it has an isoline
-    # segment; the segments' t, samples and flags are copied to a buffer in travel order on
-    # the way (gathers in travel order are independent loads, unlike the walk)
+    return trav, lp_start, n_loops, m, ok
+
+
+@njit(cache=True, nogil=True)
+def _loop_keys(rec, trav, lp_start, n_loops, m, ok):
+    """Per loop: its smallest start key, where that is, whether it has an isoline segment,
+    and its level; the segments' t, samples and flags are copied to a buffer tb in travel
+    order on the way (gathers in travel order are independent loads, unlike the walk)."""
     lp_key = np.empty(n_loops, np.int64)
     lp_at = np.empty(n_loops, np.int64)
     lp_inner = np.empty(n_loops, np.bool_)
@@ -478,12 +387,36 @@ def march_loops(vals, band, levels, grid, grid_eps):
         lp_at[a] = at
         lp_inner[a] = inner
         lp_lev[a] = tb[o, 3] >> 1
-    rec = rec[:0].copy()
-    trav = trav[:0].copy()
+    return lp_key, lp_at, lp_inner, lp_lev, tb
+
+
+@njit(cache=True, nogil=True)
+def _crossing_t(vals_f, b, ab, tt, rb, cb, ra, ca, hp, wp):
+    """t of the crossing between the below sample b and the above one ab (flat padded
+    indices at (rb, cb) and (ra, ca)): on the monotone cubic through the samples beyond both
+    ends where b is off the padding (a sample beyond on the padding is replaced by the end's
+    own), else the linear tt."""
+    if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
+        step = ab - b
+        v0 = vals_f[b]
+        v1 = vals_f[ab]
+        r2 = 2 * rb - ra  # the sample before the below one, and after the above one
+        c2 = 2 * cb - ca
+        vm = vals_f[b - step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v0
+        r2 = 2 * ra - rb
+        c2 = 2 * ca - cb
+        v2 = vals_f[ab + step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v1
+        tt = _cubic_t(vm, v0, v1, v2, tt)
+    return tt
+
+
+@njit(cache=True, nogil=True)
+def _gather_points(vals, grid, grid_eps, tb, lp_start, lp_key, lp_at, lp_inner, lp_lev, n_loops):
+    """The kept loops in order of their smallest start key, each rotated to start there;
+    per point, in travel order: (x, y), the border flag of the segment it starts, its below
+    and above samples, t, and the errors and gradients at those samples (march_loops)."""
+    hp, wp = vals.shape
     tb_f = tb.view(np.float64)
-    # the kept loops in order of their smallest start key, each rotated to start there;
-    # per point, in travel order: (x, y), the border flag of the segment it starts, its
-    # below and above samples, t, and the errors and gradients at those samples
     order = np.argsort(lp_key)
     vals_f = vals.ravel()
     n_out = 0
@@ -523,24 +456,11 @@ def march_loops(vals, band, levels, grid, grid_eps):
                 src -= length
             b = tb[src, 1]
             ab = tb[src, 2]
-            tt = tb_f[src, 0]
             rb = b // wp
             cb = b - rb * wp
             ra = ab // wp
             ca = ab - ra * wp
-            if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
-                # the crossing on the monotone cubic through the samples beyond both ends
-                # (a sample beyond on the padding is replaced by the end's own)
-                step = ab - b
-                v0 = vals_f[b]
-                v1 = vals_f[ab]
-                r2 = 2 * rb - ra  # the sample before the below one, and after the above one
-                c2 = 2 * cb - ca
-                vm = vals_f[b - step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v0
-                r2 = 2 * ra - rb
-                c2 = 2 * ca - cb
-                v2 = vals_f[ab + step] if 0 < r2 < hp - 1 and 0 < c2 < wp - 1 else v1
-                tt = _cubic_t(vm, v0, v1, v2, tt)
+            tt = _crossing_t(vals_f, b, ab, tb_f[src, 0], rb, cb, ra, ca, hp, wp)
             # padded (r, c) -> image (x, y) = ((c - 1) / 2, (r - 1) / 2)
             points[m, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
             points[m, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
@@ -561,99 +481,40 @@ def march_loops(vals, band, levels, grid, grid_eps):
             m += 1
         kl += 1
         offsets[kl] = m
-    return ok, points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets, frame_levels
+    return points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets, frame_levels
 
 
-def march_loops_ref(vals, band, levels, grid, grid_eps):
-    """NumPy twin of :func:`march_loops`: march_ref, a plain walk along the keys, gathers,
-    and np.gradient for the gradient magnitude."""
-    seg = march_ref(vals, band, levels)
+@njit(cache=True, nogil=True)
+def march_loops(vals, band, levels, grid, grid_eps):
+    """All isolines of a padded grid as loops, in one call: marching, linking, and the
+    per-point data of encoder/isolines.py.
+
+    grid, grid_eps : the unpadded grid (vals without its ring) and its sample errors.
+    Loops are ordered by, and start at, their segment of smallest start key (as
+    link_loops); loops with no isoline segment (wholly on the frame) are left out and their
+    levels returned. Per point of the kept loops, in travel order: (x, y), the border flag
+    of the segment it starts, its below and above samples (flat padded indices) and t, and
+    the sample errors and gradient magnitudes at the below and above samples (0 on the
+    padding). Returns ok False (and empty arrays) if the segments do not close into loops.
+    """
     hp, wp = vals.shape
-    start = {int(k): s for s, k in enumerate(seg["skey"])}
-    nxt = np.array([start.get(int(k), -1) for k in seg["ekey"]], np.int64)
-    seen = np.zeros(len(nxt), bool)
-    loops = []
-    for i in np.argsort(seg["skey"], kind="stable"):  # each loop from its smallest key
-        if seen[i]:
-            continue
-        lp = []
-        j = i
-        while not seen[j]:
-            seen[j] = True
-            lp.append(j)
-            j = nxt[j]
-        loops.append(np.asarray(lp, np.int64))
-    inner = [lp for lp in loops if not np.all(seg["border"][lp])]
-    frame_levels = np.array([seg["level"][lp[0]] for lp in loops if np.all(seg["border"][lp])], np.int64)
-    order = np.concatenate(inner) if inner else np.zeros(0, np.int64)
-    below, above, t = seg["below"][order], seg["above"][order], seg["t"][order]
-    rb, cb = np.divmod(below, wp)
-    ra, ca = np.divmod(above, wp)
-    inner_b = (rb > 0) & (cb > 0) & (rb < hp - 1) & (cb < wp - 1)
-    f = np.asarray(vals, np.float64).ravel()
-    step = above - below
-    before, beyond = below - step, above + step
-
-    def on_pad(i):
-        r, c = np.divmod(i, wp)
-        return (r == 0) | (c == 0) | (r == hp - 1) | (c == wp - 1)
-
-    k = np.flatnonzero(inner_b)
-    v0, v1 = f[below[k]], f[above[k]]
-    vm = np.where(on_pad(before[k]), v0, f[np.clip(before[k], 0, f.size - 1)])
-    v2 = np.where(on_pad(beyond[k]), v1, f[np.clip(beyond[k], 0, f.size - 1)])
-    t = t.copy()
-    t[k] = cubic_t_ref(vm, v0, v1, v2, t[k])
-    points = np.column_stack([((cb - 1) + t * (ca - cb)) * 0.5, ((rb - 1) + t * (ra - rb)) * 0.5])
-    eps_p = np.zeros((hp, wp))
-    eps_p[1:-1, 1:-1] = grid_eps
-    gy, gx = np.gradient(np.asarray(grid, np.float64), 0.5)
-    grad_p = np.zeros((hp, wp))
-    grad_p[1:-1, 1:-1] = np.hypot(gx, gy)
-    ef, gf = eps_p.ravel(), grad_p.ravel()
-    level = np.array([seg["level"][lp[0]] for lp in inner], np.int32)
-    offsets = np.concatenate([[0], np.cumsum([len(lp) for lp in inner])]).astype(np.int64)
-    return (True, points, seg["border"][order], below, above, t, ef[below], ef[above], gf[below],
-            gf[above], level, offsets, frame_levels)
-
-
-def cubic_t_ref(vm, v0, v1, v2, t):
-    """NumPy twin of _cubic_t, over arrays: the same steps, element by element."""
-    d = v1 - v0
-    a = np.maximum(0.5 * (v1 - vm) / d, 0.0)
-    b = np.maximum(0.5 * (v2 - v0) / d, 0.0)
-    r = a * a + b * b
-    big = r > 9.0
-    f = 3.0 / np.sqrt(np.where(big, r, 9.0))
-    a = np.where(big, a * f, a)
-    b = np.where(big, b * f, b)
-    c2 = 3.0 - 2.0 * a - b
-    c3 = a + b - 2.0
-    x = np.array(t, np.float64)
-    lo = np.zeros_like(x)
-    hi = np.ones_like(x)
-    out = x.copy()
-    live = np.ones(x.shape, bool)
-    for _ in range(CUBIC_ITERATIONS):
-        k = np.flatnonzero(live)
-        if k.size == 0:
-            break
-        xk = x[k]
-        g = ((c3[k] * xk + c2[k]) * xk + a[k]) * xk - t[k]
-        root = g == 0.0
-        out[k[root]] = xk[root]
-        live[k[root]] = False
-        k, xk, g = k[~root], xk[~root], g[~root]
-        below = g < 0.0
-        lo[k] = np.where(below, xk, lo[k])
-        hi[k] = np.where(below, hi[k], xk)
-        dg = (3.0 * c3[k] * xk + 2.0 * c2[k]) * xk + a[k]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xn = np.where(dg > 0.0, xk - g / np.where(dg > 0.0, dg, 1.0), 0.5 * (lo[k] + hi[k]))
-        xn = np.where((lo[k] < xn) & (xn < hi[k]), xn, 0.5 * (lo[k] + hi[k]))
-        done = np.abs(xn - xk) <= CUBIC_STEP
-        out[k[done]] = xn[done]
-        live[k[done]] = False
-        x[k] = xn
-        out[k[~done]] = xn[~done]
-    return out
+    n, s_cell, s_lev, s_ea, s_eb, rec, s_t, cell_start = _march_cells(vals, band, levels)
+    nxt, ok = _link(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp)
+    # rec[:, 0] takes t (its bits), so that the gathers below find a segment's data on one
+    # cache line
+    rec_f = rec.view(np.float64)
+    for s in range(n):
+        rec_f[s, 0] = s_t[s]
+    # what only linking needed goes (memory: about 150 bytes a segment remain at peak)
+    s_t = s_t[:0].copy()
+    s_cell = s_cell[:0].copy()
+    s_lev = s_lev[:0].copy()
+    s_ea = s_ea[:0].copy()
+    s_eb = s_eb[:0].copy()
+    cell_start = cell_start[:0].copy()
+    trav, lp_start, n_loops, m, ok = _walk(nxt, n, ok)
+    nxt = nxt[:0].copy()
+    lp_key, lp_at, lp_inner, lp_lev, tb = _loop_keys(rec, trav, lp_start, n_loops, m, ok)
+    rec = rec[:0].copy()
+    trav = trav[:0].copy()
+    return (ok,) + _gather_points(vals, grid, grid_eps, tb, lp_start, lp_key, lp_at, lp_inner, lp_lev, n_loops)

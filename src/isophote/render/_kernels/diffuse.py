@@ -1,4 +1,4 @@
-"""Distance fields of the double-diffusion fill (kernels + NumPy twin).
+"""Distance fields of the double-diffusion fill (kernels; their NumPy twins are diffuse_ref.py).
 
 Node grid: node (i, j) sits at (j + 0.5, i + 0.5) in node units. For every node and each
 side (0 = lower, 1 = upper) the fields hold the nearest source: its position (sx, sy), the
@@ -213,36 +213,6 @@ def propagate(F, band, offs, mode, max_iter):
     return max_iter
 
 
-def propagate_ref(F, band, offs, mode, max_iter=10000):
-    """NumPy twin for the path-length metrics: Jacobi relaxation of the same graph, with whole-
-    array shifts, to the same fixed point (shortest paths within each band)."""
-    F = F.copy()
-    nr, nc = band.shape
-    all_offs = np.concatenate([offs, -offs])
-    for _ in range(max_iter):
-        changed = False
-        for di, dj in all_offs:
-            # node (i, j) receives from (i + di, j + dj)
-            src_i = slice(max(di, 0), nr + min(di, 0))
-            dst_i = slice(max(-di, 0), nr + min(-di, 0))
-            src_j = slice(max(dj, 0), nc + min(dj, 0))
-            dst_j = slice(max(-dj, 0), nc + min(-dj, 0))
-            same = band[src_i, src_j] == band[dst_i, dst_j]
-            # in the fields' own precision, or float32 rounding never lets the relaxation settle
-            w = F.dtype.type(abs(di) + abs(dj) if mode == MODE_MANHATTAN else np.hypot(di, dj))
-            for s in range(2):
-                cand = F[s, D][src_i, src_j] + w
-                better = same & (cand < F[s, D][dst_i, dst_j] - 1e-12)
-                if better.any():
-                    changed = True
-                    for f in (SX, SY, V):
-                        F[s, f][dst_i, dst_j] = np.where(better, F[s, f][src_i, src_j], F[s, f][dst_i, dst_j])
-                    F[s, D][dst_i, dst_j] = np.where(better, cand, F[s, D][dst_i, dst_j])
-        if not changed:
-            break
-    return F
-
-
 @njit(cache=True, nogil=True)
 def label_nodes(band):
     """8-connected regions of equal band: (labels (nr, nc) int32, count)."""
@@ -259,24 +229,6 @@ def label_nodes(band):
                     union(parent, k, ii * nc + jj)
     m = label_in_place(parent)  # numbered in scan order of each region's first node
     return parent.astype(np.int32).reshape(nr, nc), m
-
-
-def label_nodes_ref(band):
-    """NumPy twin of :func:`label_nodes`: scipy's 8-connected labelling of each band, the
-    regions then numbered in scan order of their first node."""
-    from scipy import ndimage
-
-    band = np.asarray(band)
-    raw = np.zeros(band.shape, np.int64)
-    m = 0
-    for b in np.unique(band):
-        lab, k = ndimage.label(band == b, structure=np.ones((3, 3), bool))
-        raw[lab > 0] = lab[lab > 0] + m
-        m += k
-    _, first = np.unique(raw.ravel(), return_index=True)  # each region's first node
-    rank = np.empty(m + 1, np.int64)
-    rank[raw.ravel()[np.sort(first)]] = np.arange(first.shape[0])
-    return rank[raw].astype(np.int32), int(first.shape[0])
 
 
 @njit(cache=True, nogil=True)
@@ -426,6 +378,134 @@ def _mid(levels, b):
     return 0.5 * (lo_b + hi_b)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _from_nodes(nv, nband, b, x, y, i0, j0):
+    """The sample (x, y) of band b read from the node fill nv, where it can be: a node itself
+    (renders at 1x), or in a cell whose four nodes share its band (no isoline crosses it;
+    module docstring). Returns (True, value), or (False, 0) for exact evaluation."""
+    nr, nc = nband.shape
+    if 0 <= i0 < nr and 0 <= j0 < nc and x == j0 + 0.5 and y == i0 + 0.5 and nband[i0, j0] == b:
+        # the sample is a node: nv holds this very evaluation
+        return True, np.float64(nv[i0, j0])
+    if nr > 1 and nc > 1 and -1 <= i0 < nr and -1 <= j0 < nc:
+        # within half a node of the frame, outside the outermost nodes, the edge
+        # cell extends linearly (as the cell next to it would), so the frame gets
+        # no step where exact evaluation would meet interpolation
+        ic = min(max(i0, 0), nr - 2)
+        jc = min(max(j0, 0), nc - 2)
+        if (nband[ic, jc] == b and nband[ic, jc + 1] == b
+                and nband[ic + 1, jc] == b and nband[ic + 1, jc + 1] == b):
+            fx = x - (jc + 0.5)
+            fy = y - (ic + 0.5)
+            return True, ((1.0 - fy) * ((1.0 - fx) * nv[ic, jc] + fx * nv[ic, jc + 1])
+                          + fy * ((1.0 - fx) * nv[ic + 1, jc] + fx * nv[ic + 1, jc + 1]))
+    return False, 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
+    """The exact evaluation's search around the sample (x, y) of band b: the 2 x 2 nodes of its
+    cell, then (unless they hold a node of band b, or sources of both sides) the 4 x 4 around.
+    Returns the region of the nearest node of band b (-1: none) and per side (0 = lower, 1 =
+    upper) the distance (inf: none), value and position of the nearest source."""
+    nr, nc = nband.shape
+    reg = -1
+    reg_d = np.inf
+    best_d0 = np.inf
+    best_d1 = np.inf
+    v0 = 0.0
+    v1 = 0.0
+    sx0 = sy0 = sx1 = sy1 = 0.0
+    found = False
+    for ring in range(2):
+        lo_i = i0 - ring
+        hi_i = i0 + 1 + ring
+        lo_j = j0 - ring
+        hi_j = j0 + 1 + ring
+        for i in range(lo_i, hi_i + 1):
+            if i < 0 or i >= nr:
+                continue
+            for j in range(lo_j, hi_j + 1):
+                if j < 0 or j >= nc:
+                    continue
+                bn = nband[i, j]
+                if bn == b:
+                    found = True
+                    dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
+                    if dn2 < reg_d:
+                        reg_d = dn2
+                        reg = labels[i, j]
+                    s_lo, s_hi = 0, 2
+                elif bn == b - 1:
+                    # a node just below: its upper isoline is this sample's lower one
+                    s_lo, s_hi = 1, 2
+                elif bn == b + 1:
+                    # a node just above: its lower isoline is this sample's upper one
+                    s_lo, s_hi = 0, 1
+                else:
+                    continue
+                for s in range(s_lo, s_hi):
+                    dn = F[s, D, i, j]
+                    if dn == np.inf:
+                        continue
+                    sx = F[s, SX, i, j]
+                    sy = F[s, SY, i, j]
+                    tx = F[s, TX, i, j]
+                    ty = F[s, TY, i, j]
+                    cand = seg_dist(x, y, sx, sy, tx, ty, mode)
+                    if mode != 0 and bn == b:
+                        # the path to the node, with its last leg re-aimed at the sample
+                        cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
+                    side = s if bn == b else 1 - s
+                    if side == 0:
+                        if cand < best_d0:
+                            best_d0 = cand
+                            v0 = F[s, V, i, j]
+                            sx0, sy0 = sx, sy
+                    else:
+                        if cand < best_d1:
+                            best_d1 = cand
+                            v1 = F[s, V, i, j]
+                            sx1, sy1 = sx, sy
+        if found or (best_d0 < np.inf and best_d1 < np.inf):
+            break
+    return reg, best_d0, v0, sx0, sy0, best_d1, v1, sx1, sy1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
+    """The fill where a side has no source: the region's cap profile (peak: only the lower
+    level is a source; pit: only the upper), the band's middle without a cap."""
+    mid = _mid(levels, b)
+    cv = capv[reg] if reg >= 0 else np.nan
+    if d0 == np.inf and d1 == np.inf:
+        return mid if np.isnan(cv) else cv
+    if d0 == np.inf:  # a pit: only the level above is a source
+        lvl, d, s_other = v1, d1, 1
+    else:  # a peak
+        lvl, d, s_other = v0, d0, 0
+    if np.isnan(cv):
+        return 0.5 * (lvl + mid)
+    dm = min(dmax[reg, s_other], ramp)
+    if dm <= 0.0 or d >= dm:
+        return cv
+    if not smooth:
+        return lvl + (cv - lvl) * d / dm
+    return _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
+    """The fill between a lower and an upper source: the straight line (fill "linear") or
+    the G1 Hermite profile."""
+    tot = d0 + d1
+    if tot <= 0.0:
+        return 0.5 * (v0 + v1)
+    if not smooth:
+        return (v0 * d1 + v1 * d0) / tot
+    return _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1)
+
+
 @njit(cache=True, nogil=True)
 def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth, bw,
              corr):
@@ -447,7 +527,6 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
     use_corr = corr.shape[0] > 0
     exact = np.zeros(tband.shape[1] if use_corr else 0, np.bool_)
     use_nv = nv.shape[0] == nband.shape[0]
-    nr, nc = nband.shape
     nl = levels.shape[0]
     n, m = tband.shape
     for a in range(n):
@@ -466,115 +545,19 @@ def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, fl
                 out[a, bcol] = _mid(levels, b)
                 continue
             j0 = int(np.floor(x - 0.5))
-            if (use_nv and 0 <= i0 < nr and 0 <= j0 < nc and x == j0 + 0.5 and y == i0 + 0.5
-                    and nband[i0, j0] == b):
-                # the sample is a node (renders at 1x): nv holds this very evaluation
-                out[a, bcol] = nv[i0, j0]
-                continue
-            if use_nv and nr > 1 and nc > 1 and -1 <= i0 < nr and -1 <= j0 < nc:
-                # within half a node of the frame, outside the outermost nodes, the edge
-                # cell extends linearly (as the cell next to it would), so the frame gets
-                # no step where exact evaluation would meet interpolation
-                ic = min(max(i0, 0), nr - 2)
-                jc = min(max(j0, 0), nc - 2)
-                if (nband[ic, jc] == b and nband[ic, jc + 1] == b
-                        and nband[ic + 1, jc] == b and nband[ic + 1, jc + 1] == b):
-                    fx = x - (jc + 0.5)
-                    fy = y - (ic + 0.5)
-                    out[a, bcol] = ((1.0 - fy) * ((1.0 - fx) * nv[ic, jc] + fx * nv[ic, jc + 1])
-                                    + fy * ((1.0 - fx) * nv[ic + 1, jc] + fx * nv[ic + 1, jc + 1]))
+            if use_nv:
+                hit, value = _from_nodes(nv, nband, b, x, y, i0, j0)
+                if hit:
+                    out[a, bcol] = value
                     continue
             if use_corr:
                 exact[bcol] = True  # evaluated exactly: corr is added below
-            mid = _mid(levels, b)
-            reg = -1
-            reg_d = np.inf
-            best_d0 = np.inf
-            best_d1 = np.inf
-            v0 = 0.0
-            v1 = 0.0
-            sx0 = sy0 = sx1 = sy1 = 0.0
-            found = False
-            for ring in range(2):
-                lo_i = i0 - ring
-                hi_i = i0 + 1 + ring
-                lo_j = j0 - ring
-                hi_j = j0 + 1 + ring
-                for i in range(lo_i, hi_i + 1):
-                    if i < 0 or i >= nr:
-                        continue
-                    for j in range(lo_j, hi_j + 1):
-                        if j < 0 or j >= nc:
-                            continue
-                        bn = nband[i, j]
-                        if bn == b:
-                            found = True
-                            dn2 = (j + 0.5 - x) ** 2 + (i + 0.5 - y) ** 2
-                            if dn2 < reg_d:
-                                reg_d = dn2
-                                reg = labels[i, j]
-                            s_lo, s_hi = 0, 2
-                        elif bn == b - 1:
-                            # a node just below: its upper isoline is this sample's lower one
-                            s_lo, s_hi = 1, 2
-                        elif bn == b + 1:
-                            # a node just above: its lower isoline is this sample's upper one
-                            s_lo, s_hi = 0, 1
-                        else:
-                            continue
-                        for s in range(s_lo, s_hi):
-                            dn = F[s, D, i, j]
-                            if dn == np.inf:
-                                continue
-                            sx = F[s, SX, i, j]
-                            sy = F[s, SY, i, j]
-                            tx = F[s, TX, i, j]
-                            ty = F[s, TY, i, j]
-                            cand = seg_dist(x, y, sx, sy, tx, ty, mode)
-                            if mode != 0 and bn == b:
-                                # the path to the node, with its last leg re-aimed at the sample
-                                cand += dn - seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
-                            side = s if bn == b else 1 - s
-                            if side == 0:
-                                if cand < best_d0:
-                                    best_d0 = cand
-                                    v0 = F[s, V, i, j]
-                                    sx0, sy0 = sx, sy
-                            else:
-                                if cand < best_d1:
-                                    best_d1 = cand
-                                    v1 = F[s, V, i, j]
-                                    sx1, sy1 = sx, sy
-                if found or (best_d0 < np.inf and best_d1 < np.inf):
-                    break
-            if best_d0 == np.inf or best_d1 == np.inf:
-                cv = capv[reg] if reg >= 0 else np.nan
-                if best_d0 == np.inf and best_d1 == np.inf:
-                    out[a, bcol] = mid if np.isnan(cv) else cv
-                    continue
-                if best_d0 == np.inf:  # a pit: only the level above is a source
-                    lvl, d, s_other = v1, best_d1, 1
-                else:  # a peak
-                    lvl, d, s_other = v0, best_d0, 0
-                if np.isnan(cv):
-                    out[a, bcol] = 0.5 * (lvl + mid)
-                    continue
-                dm = min(dmax[reg, s_other], ramp)
-                if dm <= 0.0 or d >= dm:
-                    out[a, bcol] = cv
-                elif not smooth:
-                    out[a, bcol] = lvl + (cv - lvl) * d / dm
-                else:
-                    out[a, bcol] = _cap_hermite(bw, nband, b, x, y, s_other,
-                                                sx0, sy0, sx1, sy1, d, lvl, cv, dm)
-                continue
-            tot = best_d0 + best_d1
-            if tot <= 0.0:
-                out[a, bcol] = 0.5 * (v0 + v1)
-            elif not smooth:
-                out[a, bcol] = (v0 * best_d1 + v1 * best_d0) / tot
+            reg, d0, v0, sx0, sy0, d1, v1, sx1, sy1 = _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode)
+            if d0 == np.inf or d1 == np.inf:
+                out[a, bcol] = _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, sy0,
+                                          d1, v1, sx1, sy1, smooth)
             else:
-                out[a, bcol] = _hermite(bw, nband, b, x, y, sx0, sy0, best_d0, v0, sx1, sy1, best_d1, v1)
+                out[a, bcol] = _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth)
         if use_corr:
             for bcol in range(m):
                 if exact[bcol]:

@@ -1,4 +1,4 @@
-"""Bilinear reading of a node-grid field at a point (kernel + NumPy twin).
+"""Bilinear reading of a node-grid field at a point (kernel; its NumPy twin is resample_ref.py).
 
 Node (i, j) sits at (j + 0.5, i + 0.5) in node units, as in _kernels/diffuse.py. A point
 (x, y) in node units reads the four nodes around it; outside the outermost nodes the field
@@ -34,12 +34,3 @@ def bilinear_at(field, x, y):
     top = (1.0 - fx) * field[i0, j0] + fx * field[i0, j1]
     bot = (1.0 - fx) * field[i1, j0] + fx * field[i1, j1]
     return (1.0 - fy) * top + fy * bot
-
-
-def bilinear_at_ref(field, xs, ys):
-    """NumPy twin of :func:`bilinear_at` at the points (xs[k], ys[k]): scipy's order-1
-    map_coordinates, nearest mode."""
-    from scipy import ndimage
-
-    coords = [np.asarray(ys, np.float64) - 0.5, np.asarray(xs, np.float64) - 0.5]
-    return ndimage.map_coordinates(np.asarray(field, np.float64), coords, order=1, mode="nearest")

@@ -1,4 +1,4 @@
-"""The enlargement sharpening's correction at the nodes (kernel + NumPy twin); the model and
+"""The enlargement sharpening's correction at the nodes (kernel; its NumPy twin is sharpen_ref.py); the model and
 its measurements: render/sharpen.py.
 
 corr = -(gx d2x + gy d2y): the second differences of the nodes' fill values r nodes (one
@@ -44,15 +44,3 @@ def _second_difference(f: np.ndarray, r: int, axis: int) -> np.ndarray:
         hi[axis] = slice(2 * r, n)
         out[tuple(inner)] = f[tuple(lo)] - 2.0 * f[tuple(inner)] + f[tuple(hi)]
     return out
-
-
-def correction_ref(nv, r, gx, gy):
-    """NumPy twin of :func:`correction`."""
-    f = np.asarray(nv).astype(np.float64)
-    c = np.zeros_like(f)
-    if gx > 0.0:
-        c -= gx * _second_difference(f, r, 1)
-    if gy > 0.0:
-        c -= gy * _second_difference(f, r, 0)
-    corr = c.astype(np.float32)
-    return corr, (f + corr.astype(np.float64)).astype(np.float32)
