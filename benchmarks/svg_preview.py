@@ -6,8 +6,8 @@
 For every photograph in --dir (*.png, *.jpg): encode with the default options (or load
 DIR/NAME.isoph from --masters when it is there; encoded masters are saved there), render the
 flat fill at 1x (``vi.render(fill="flat")``), write the SVG (``to_svg``: crisp edges, the
-default, and ``crisp=False``: anti-aliased), show it with resvg (``resvg-py``) and with
-Debian's headless Chromium (Playwright, file:// URL, viewport = image size, device scale
+default, and ``crisp=False``: anti-aliased), show it with resvg (``resvg-py``) and (crisp;
+both with --smooth-chromium) with Debian's headless Chromium (Playwright, file:// URL, viewport = image size, device scale
 factor 1, sRGB colour profile forced), and measure PSNR (RGB) of each against the flat
 render and against the original. Bytes: the SVG, and its data part (the same document
 without the preview's paint: fills, root rectangles, filter), so that the preview's cost
@@ -88,7 +88,7 @@ def master(path: str, img: np.ndarray, cache: str | None):
     return vi
 
 
-def measure(path: str, cache, chromium, work: str, shots) -> dict:
+def measure(path: str, cache, chromium, work: str, shots, smooth_chromium: bool = False) -> dict:
     from PIL import Image
 
     name = os.path.splitext(os.path.basename(path))[0]
@@ -113,7 +113,7 @@ def measure(path: str, cache, chromium, work: str, shots) -> dict:
         shown = resvg_pixels(text, w, h)
         row[f"{tag}_resvg_s"] = time.perf_counter() - t
         row[f"{tag}_resvg_flat"], row[f"{tag}_resvg_orig"] = M.psnr(flat, shown), M.psnr(img, shown)
-        if chromium is not None:
+        if chromium is not None and (crisp or smooth_chromium):
             p = os.path.join(work, f"{name}_{tag}.svg")
             with open(p, "w", encoding="utf-8") as f:
                 f.write(text)
@@ -132,7 +132,8 @@ def table(rows, chromium: bool) -> str:
     head = ["image", "contours", "flat vs orig", "resvg vs flat", "resvg vs orig"]
     if chromium:
         head += ["Chromium vs flat", "Chromium vs orig"]
-    head += ["smooth: resvg vs orig"] + (["smooth: Chromium vs orig"] if chromium else [])
+    smooth_c = chromium and "smooth_chromium_orig" in rows[0]
+    head += ["smooth: resvg vs orig"] + (["smooth: Chromium vs orig"] if smooth_c else [])
     head += ["SVG bytes", "data bytes", "SVG/data", "exact re-import"]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
@@ -140,7 +141,7 @@ def table(rows, chromium: bool) -> str:
              f"{r['crisp_resvg_orig']:.2f}"]
         if chromium:
             c += [f"{r['crisp_chromium_flat']:.2f}", f"{r['crisp_chromium_orig']:.2f}"]
-        c += [f"{r['smooth_resvg_orig']:.2f}"] + ([f"{r['smooth_chromium_orig']:.2f}"] if chromium else [])
+        c += [f"{r['smooth_resvg_orig']:.2f}"] + ([f"{r['smooth_chromium_orig']:.2f}"] if smooth_c else [])
         c += [str(r["svg"]), str(r["data"]), f"{r['svg'] / r['data']:.3f}", "yes" if r["exact"] else "NO"]
         out.append("| " + " | ".join(c) + " |")
     worst = [min(r["crisp_resvg_orig"] - r["flat_orig"], *( [r["crisp_chromium_orig"] - r["flat_orig"]] if chromium else [])) for r in rows]
@@ -155,6 +156,7 @@ def main(argv=None) -> int:
     ap.add_argument("--dir", default="/work/wide/photo")
     ap.add_argument("--masters", help="folder of NAME.isoph masters to load (and to save encoded ones to)")
     ap.add_argument("--no-chromium", action="store_true")
+    ap.add_argument("--smooth-chromium", action="store_true", help="also show the anti-aliased SVG in Chromium")
     ap.add_argument("--shots", help="write the Chromium screenshots into this folder")
     ap.add_argument("--work", default="/tmp", help="where the SVGs are written for Chromium")
     ap.add_argument("--out", help="also write the table (Markdown) to this file")
@@ -164,7 +166,7 @@ def main(argv=None) -> int:
     rows = []
     try:
         for p in paths:
-            rows.append(measure(p, args.masters, chromium, args.work, args.shots))
+            rows.append(measure(p, args.masters, chromium, args.work, args.shots, args.smooth_chromium))
             r = rows[-1]
             print(f"# {r['image']}: resvg {r['crisp_resvg_flat']:.2f} dB vs flat"
                   + (f", Chromium {r['crisp_chromium_flat']:.2f} ({r['crisp_chromium_s']:.1f} s)" if chromium else "")

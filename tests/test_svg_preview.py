@@ -168,7 +168,9 @@ def test_preview_in_resvg_is_the_flat_render(scene, grey_scene, colour):
     flat = render_float(vi, fill="flat")
     flat3 = flat if flat.shape[-1] == 3 else np.repeat(flat.reshape(vi.height, vi.width, 1), 3, axis=2)
     inside = _interior(flat)
-    for crisp, floor in ((True, 38.0), (False, 30.0)):
+    # measured: crisp 40.4 dB (grey 45.3), smooth 31.3 (grey 30.3): sharp edges shared by many
+    # nested contours creep outwards when each one's partial coverage paints over the last
+    for crisp, floor in ((True, 38.0), (False, 28.0)):
         shown = _resvg(svg.to_svg(vi, crisp=crisp), vi.width, vi.height)
         assert shown.shape == flat3.shape
         # away from edges: the region's value, off by the 8-bit layers' rounding only
@@ -186,7 +188,7 @@ def test_preview_in_headless_chromium(scene, tmp_path):
         pytest.skip("Debian chromium not installed")
     flat = render_float(scene, fill="flat")
     inside = _interior(flat)
-    for crisp, floor in ((True, 38.0), (False, 30.0)):
+    for crisp, floor in ((True, 38.0), (False, 28.0)):
         path = tmp_path / f"scene{int(crisp)}.svg"
         svg.save_svg(scene, path, crisp=crisp)
         shot = tmp_path / f"shot{int(crisp)}.png"
@@ -203,3 +205,34 @@ def test_preview_in_headless_chromium(scene, tmp_path):
         assert shown.shape == flat.shape
         assert np.abs(shown - flat)[inside].max() <= 2.0
         assert _psnr(shown, flat) >= floor, (crisp, _psnr(shown, flat))
+
+
+# ---- colour profiles ------------------------------------------------------------------------
+
+ADOBE_RGB = "/usr/share/color/icc/compatibleWithAdobeRGB1998.icc"  # Debian's icc-profiles-free
+
+
+def test_preview_of_an_adobe_rgb_master_is_converted_to_srgb(scene):
+    """A master coded in Adobe RGB: the preview's filter ends in the fitted map to sRGB, so
+    resvg shows the colours LittleCMS gives for the flat render (a colour-managed viewer's
+    picture of the render), far closer than the coded values shown as sRGB."""
+    from dataclasses import replace
+
+    from isophote import icc
+
+    if not os.path.exists(ADOBE_RGB):
+        pytest.skip("icc-profiles-free (Adobe RGB profile) not installed")
+    with open(ADOBE_RGB, "rb") as f:
+        prof = f.read()
+    tagged = replace(scene, meta={**scene.meta, **icc.meta_for(prof)})
+    a = preview.icc_affine(tagged)
+    assert a is not None and a.shape == (3, 4) and preview.icc_affine(scene) is None
+    flat = render_float(tagged, fill="flat")
+    want = icc.to_srgb(flat, prof)
+    shown = _resvg(svg.to_svg(tagged), scene.width, scene.height)
+    plain = _resvg(svg.to_svg(scene), scene.width, scene.height)
+    # 29.1 dB against 21.6 measured: the scene's saturated primaries lie far outside sRGB,
+    # where one affine map cannot follow LittleCMS's clipping (a photograph: 49.6 dB)
+    assert _psnr(shown, want) >= 27.0 and _psnr(shown, want) >= _psnr(plain, want) + 5.0, \
+        (_psnr(shown, want), _psnr(plain, want))
+    assert svg.from_svg(svg.to_svg(tagged)).equals(tagged)  # the profile travels in meta

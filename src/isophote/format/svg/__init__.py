@@ -89,9 +89,11 @@ component in the group the filter reads): at most 0.5 off in Y, U and V, 1.4 in 
 The preview is not data (the reader ignores fills, rectangles, filter and blend modes). Its
 cost is one fill attribute per contour (15 bytes), a rectangle per layer and the filter: the
 file is the contours' path data plus about 15 bytes a contour, never anything per pixel.
-Colour profiles: the preview's colours are the image's coded values, shown as sRGB; a
-master that carries an ICC profile in meta (icc.py) keeps it in the SVG's meta, but the
-preview does not convert it (an SVG filter cannot apply an ICC transform exactly).
+Colour profiles: a yuv master that carries an ICC profile in meta (icc.py) keeps it in the
+SVG's meta, and its preview's filter ends in an affine map to sRGB fitted to LittleCMS on
+the image's own colours (preview.icc_affine; chelsea in Adobe RGB: the SVG in resvg 40.4 dB
+against LittleCMS's conversion of the flat render, 32.2 dB without); a grey image's
+preview shows its coded values as sRGB.
 
 Reading edited files
 ====================

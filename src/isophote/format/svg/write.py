@@ -15,7 +15,7 @@ from ...model import CAP_RAMP, Channel, VectorImage
 from ..limits import MAX_LEVELS, SVG_FORMAT_VERSION
 from ..validate import check_cap_ramp, check_image_kind, check_levels, check_semantics, meta_bytes
 from ...geometry import signed_areas
-from .preview import FILTER_ID, filter_def, fills
+from .preview import FILTER_ID, fills, filter_def, icc_affine
 from .profile import LOCAL_SCALE, MAX_CAP_VALUE, MAX_COORD, NS_INKSCAPE, NS_ISO, NS_SVG, UV_STROKES, check_svg_tone
 
 
@@ -61,7 +61,7 @@ def to_svg(vi: VectorImage, crisp: bool = True) -> str:
         out.append(f"<metadata><iso:meta>{_escape(meta)}</iso:meta></metadata>\n")
     yuv = vi.colour == "yuv"
     if yuv:
-        out.append("<defs>\n" + filter_def(w, h) + "</defs>\n")
+        out.append("<defs>\n" + filter_def(w, h, icc_affine(vi)) + "</defs>\n")
     edges = ' shape-rendering="crispEdges"' if crisp else ""
     out.append(f'<g filter="url(#{FILTER_ID})"{edges}>\n' if yuv else f"<g{edges}>\n")
     for ch in vi.channels:
