@@ -129,11 +129,11 @@ def test_colour_matrix_composes_yuv_into_rgb():
 
 def test_fills_paint_each_channel_in_its_own_component(scene, grey_scene):
     for ch, pos in zip(scene.channels, range(3)):
-        root, fs = preview.fills(ch, "yuv")
+        root, fs = preview.paints(ch, "yuv")
         for f in [root] + fs:
             comps = [f[1:3], f[3:5], f[5:7]]
             assert all(c == "00" for j, c in enumerate(comps) if j != pos), (ch.name, f)
-    root, fs = preview.fills(grey_scene.channel("Y"), "grey")
+    root, fs = preview.paints(grey_scene.channel("Y"), "grey")
     assert all(f[1:3] == f[3:5] == f[5:7] for f in [root] + fs)
 
 

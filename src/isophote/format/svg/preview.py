@@ -18,8 +18,9 @@ group then applies colour.py's YUV -> RGB matrix, the offsets of U and V around 
 folded into its constant column. ``color-interpolation-filters="sRGB"`` keeps the filter on
 the stored values (no linearRGB round trip). Intermediate layers hold 8 bits per component
 in browsers, so the painted values are rounded to integers: at most 0.5 off in Y, U and V,
-about 1.4 in R, G, B after the matrix (PSNR against the flat render above 45 dB where edges
-agree). A grey image is its Y layer painted grey, with no filter.
+at most 1.4 in R, G, B after the matrix (resvg and Chromium show region interiors within 2
+levels of the flat render: tests/test_svg_preview.py). A grey image is its Y layer
+painted grey, with no filter.
 """
 
 from __future__ import annotations
@@ -78,7 +79,7 @@ def region_values(ch: Channel):
     return float(vals[0]), vals[1:]
 
 
-def fills(ch: Channel, colour: str):
+def paints(ch: Channel, colour: str):
     """(root fill, (C,) list of fills): the paint of each region of ``ch`` in the preview,
     its value rounded to 8 bits, as grey (grey images) or as the channel's component."""
     root, vals = region_values(ch)

@@ -15,7 +15,7 @@ from ...model import CAP_RAMP, Channel, VectorImage
 from ..limits import MAX_LEVELS, SVG_FORMAT_VERSION
 from ..validate import check_cap_ramp, check_image_kind, check_levels, check_semantics, meta_bytes
 from ...geometry import signed_areas
-from .preview import FILTER_ID, fills, filter_def, icc_affine
+from .preview import FILTER_ID, filter_def, icc_affine, paints
 from .profile import LOCAL_SCALE, MAX_CAP_VALUE, MAX_COORD, NS_INKSCAPE, NS_ISO, NS_SVG, UV_STROKES, check_svg_tone
 
 
@@ -68,7 +68,7 @@ def to_svg(vi: VectorImage, crisp: bool = True) -> str:
         shown = ch.name in ("Y", "U", "V")
         if ch.name == "A":
             out.append("</g>\n")
-        out.extend(_channel_layer(ch, fills(ch, vi.colour) if shown else None, w, h))
+        out.extend(_channel_layer(ch, paints(ch, vi.colour) if shown else None, w, h))
     if not vi.has_alpha:
         out.append("</g>\n")
     out.append("</svg>\n")
@@ -155,7 +155,7 @@ def _nums(a: np.ndarray) -> list:
 
 def _channel_layer(ch: Channel, paint, w: int, h: int) -> list:
     """The <g> layer of one channel, as a list of strings. ``paint``: (root fill, contour
-    fills) of a shown layer (preview.fills), None for a hidden one (alpha)."""
+    fills) of a shown layer (preview.paints), None for a hidden one (alpha)."""
     label = ch.name
     c = ch.n_contours
     q = ch.points * LOCAL_SCALE  # exact (power of two)
