@@ -68,3 +68,16 @@ def test_equalised_file_keeps_its_tone_curve_through_svg(isoph, tmp_path):
     assert main(["encode", str(svg), "-o", str(back), "-q"]) == 0
     assert back.read_bytes() == eq.read_bytes()
     assert np.array_equal(isophote.load(back).channel("Y").tone, tone)
+
+
+def test_svg_edges_crisp_by_default_smooth_on_request(isoph, tmp_path):
+    crisp, smooth = tmp_path / "c.svg", tmp_path / "s.svg"
+    assert main(["svg", str(isoph), "-o", str(crisp), "-q"]) == 0
+    assert main(["svg", str(isoph), "-o", str(smooth), "--smooth", "-q"]) == 0
+    assert 'shape-rendering="crispEdges"' in crisp.read_text()
+    assert "crispEdges" not in smooth.read_text()
+    # the same contours either way
+    a, b = tmp_path / "a.isoph", tmp_path / "b.isoph"
+    assert main(["encode", str(crisp), "-o", str(a), "-q"]) == 0
+    assert main(["encode", str(smooth), "-o", str(b), "-q"]) == 0
+    assert a.read_bytes() == b.read_bytes()

@@ -1,6 +1,6 @@
 """The SVG profile (src/isophote/format/svg.py): exact round trips, renders identical to the
 .isoph's, edits made the way drawing programs make them, clean failures on bad files, and
-the preview as resvg and a real browser (headless Chromium) show it."""
+the preview as viewers show it: tests/test_svg_preview.py."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import isophote
 from isophote.errors import FormatError, LimitError
 from isophote.format import svg
 from isophote.format.svg import read as svg_read
+from isophote.geometry import signed_areas
 from isophote.format.isoph import loads as isoph_loads, dumps as isoph_dumps
 from isophote.model import Channel, VectorImage
 from isophote.render import render_float
@@ -105,12 +106,6 @@ def _random_image(seed, colour="yuv", alpha=False, on_grid=True):
     chans = tuple(_random_channel(rng, n, w, h, on_grid) for n in names)
     return VectorImage(width=w, height=h, colour=colour, channels=chans, source_depth=8,
                        meta={"seed": seed, "note": "<&>\"\uffff\u00e9\U0001f600", "list": [1.5, None]})
-
-
-def _flat_preview(vi):
-    """A cheap stand-in for a render (random images need no real colours)."""
-    n = 1 if vi.colour == "grey" else 3
-    return np.full((vi.height, vi.width, n), 100.0)
 
 
 def _path_element(text, channel, k):
@@ -215,7 +210,7 @@ def test_corpus_crop_round_trip_and_identical_render(crop):
 @pytest.mark.parametrize("seed", range(12))
 def test_random_images_round_trip(seed):
     vi = _random_image(seed, colour=("yuv", "grey")[seed % 2], alpha=seed % 3 == 0, on_grid=seed % 4 != 1)
-    text = svg.to_svg(vi, preview=_flat_preview(vi))
+    text = svg.to_svg(vi)
     back = svg.from_svg(text)
     assert back.equals(vi)
     assert back.meta == vi.meta
@@ -241,8 +236,10 @@ def test_document_shape(small):
     text = svg.to_svg(small)
     w, h = small.width, small.height
     assert f'viewBox="0 0 {w} {h}"' in text and 'version="1.1"' in text
-    # Y is visible and filled, the other channels are hidden layers
-    assert text.count("display:none") == 2
+    # Y, U and V are visible and filled, composed by the YUV -> RGB filter
+    assert text.count("display:none") == 0 and text.count("mix-blend-mode:lighten") == 2
+    assert text.count('filter="url(#isophote-yuv)"') == 1 and 'shape-rendering="crispEdges"' in text
+    assert "crispEdges" not in svg.to_svg(small, crisp=False)
     y = small.channel("Y")
     assert text.count("<path ") == sum(ch.n_contours for ch in small.channels)
     # painter's order: every parent is drawn before its children
@@ -324,7 +321,7 @@ def test_mirroring_keeps_the_orientation(small):
     y0, y1 = small.channel("Y"), back.channel("Y")
     mirrored = y0.chain(k) * [-1, 1] + [2 * cx / Q, 0]
     assert np.allclose(y1.chain(k), mirrored[::-1])  # reversed back: >= side on the left
-    area = lambda ch, i: svg._signed_areas(ch.chain(i), np.array([0, len(ch.chain(i))]))[0]
+    area = lambda ch, i: signed_areas(ch.chain(i), np.array([0, len(ch.chain(i))]))[0]
     assert np.sign(area(y1, k)) == np.sign(area(y0, k))
 
 
@@ -406,8 +403,8 @@ def test_real_inkscape_edits(small, tmp_path):
         lo, hi = chain.min(axis=0), chain.max(axis=0)
         assert not np.array_equal(chain, y.chain(k)), action
         assert np.all((back.channel("Y").cap_xy[mine] >= lo) & (back.channel("Y").cap_xy[mine] <= hi)), action
-        area = svg._signed_areas(chain, np.array([0, len(chain)]))[0]
-        assert np.sign(area) == np.sign(svg._signed_areas(y.chain(k), np.array([0, len(y.chain(k))]))[0])
+        area = signed_areas(chain, np.array([0, len(chain)]))[0]
+        assert np.sign(area) == np.sign(signed_areas(y.chain(k), np.array([0, len(y.chain(k))]))[0])
         others = np.ones(y.n_contours, bool)
         others[k] = False
         assert all(np.array_equal(y1.chain(i), y.chain(i)) for i in np.flatnonzero(others))
@@ -493,7 +490,7 @@ def _bad(text_or_bytes):
 
 
 def test_truncations_fail_cleanly(small):
-    text = svg.to_svg(small, preview=_flat_preview(small))
+    text = svg.to_svg(small)
     for n in list(range(0, 300, 7)) + list(range(300, len(text) - 1, max(1, len(text) // 97))):
         _bad(text[:n])
     raw = gzip.compress(text.encode(), mtime=0)
@@ -553,7 +550,7 @@ def test_truncations_fail_cleanly(small):
     lambda t: 12345,
 ])
 def test_malformed_files_raise_format_error(small, mutate):
-    text = svg.to_svg(small, preview=_flat_preview(small))
+    text = svg.to_svg(small)
     if "iso:caps=" not in text:  # the fixture has caps on Y
         pytest.fail("fixture lost its caps")
     bad = mutate(text)
@@ -570,7 +567,7 @@ def test_border_flags_must_be_binary(small):
 
 
 def test_oversized_input_is_refused(monkeypatch, small):
-    text = svg.to_svg(small, preview=_flat_preview(small))
+    text = svg.to_svg(small)
     monkeypatch.setattr(svg_read, "MAX_SVG_BYTES", len(text) - 1)
     with pytest.raises(LimitError):
         svg.from_svg(text)
@@ -586,9 +583,7 @@ def test_writer_refuses_a_broken_image(small):
 
     bad = replace(small, channels=(replace(y, parent=cyclic),) + small.channels[1:])
     with pytest.raises(ValueError):
-        svg.to_svg(bad, preview=_flat_preview(small))
-    with pytest.raises(ValueError):
-        svg.to_svg(small, preview=np.zeros((3, 3, 3)))
+        svg.to_svg(bad)
 
 
 def test_load_svg_names_the_file(tmp_path):
@@ -598,61 +593,3 @@ def test_load_svg_names_the_file(tmp_path):
         svg.load_svg(p)
     with pytest.raises(FormatError, match="cannot read"):
         svg.load_svg(tmp_path / "missing.svg")
-
-
-# ---- the preview as viewers show it ---------------------------------------------------------
-
-
-def _psnr(a, b):
-    mse = np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2)
-    return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
-
-
-def _png_pixels(png: bytes) -> np.ndarray:
-    from PIL import Image
-
-    with Image.open(io.BytesIO(png)) as im:
-        return np.asarray(im.convert("RGB"), np.float64)
-
-
-def test_preview_in_resvg_looks_like_the_photograph(crop):
-    resvg_py = pytest.importorskip("resvg_py", reason="resvg-py (bench extra) not installed")
-    skimage_data = pytest.importorskip("skimage.data")
-    original = skimage_data.chelsea()[90:154, 170:234].astype(np.float64)
-    flat = render_float(crop, fill="flat")
-    text = svg.to_svg(crop, preview=flat)
-    shown = _png_pixels(bytes(resvg_py.svg_to_bytes(svg_string=text, width=crop.width, height=crop.height)))
-    assert _psnr(shown, original) >= 30.0  # 34.6 dB measured; the corpus photographs 28-35
-    # opaque everywhere: a magenta canvas shows through nowhere
-    shown_m = _png_pixels(bytes(resvg_py.svg_to_bytes(svg_string=text, background="#ff00ff")))
-    assert np.array_equal(shown_m, shown)
-
-
-def test_preview_in_headless_chromium(crop, tmp_path):
-    """The SVG in a real browser (Debian's chromium) against isophote's flat-fill render."""
-    exe = shutil.which("chromium")
-    if exe is None:
-        pytest.skip("Debian chromium not installed")
-    flat = render_float(crop, fill="flat")
-    path = tmp_path / "crop.svg"
-    svg.save_svg(crop, path, preview=flat)
-    shot = tmp_path / "shot.png"
-    cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-           "--disable-background-networking", "--disable-component-update", "--disable-sync",
-           "--hide-scrollbars", "--force-device-scale-factor=1", "--default-background-color=00000000",
-           f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}",
-           f"--window-size={crop.width},{crop.height}", path.as_uri()]
-    try:
-        subprocess.run(cmd, check=True, capture_output=True, timeout=120, env={**os.environ, "HOME": str(tmp_path)})
-    except (subprocess.CalledProcessError, subprocess.TimeoutExpired) as e:
-        pytest.skip(f"chromium could not take a screenshot here: {e}")
-    shown = _png_pixels(shot.read_bytes())[: crop.height, : crop.width]
-    assert shown.shape == (crop.height, crop.width, 3)
-    assert _psnr(shown, flat) >= 30.0  # 33.5 dB measured (the preview is region means)
-    try:
-        import resvg_py
-    except ImportError:
-        return
-    text = path.read_text()
-    same = _png_pixels(bytes(resvg_py.svg_to_bytes(svg_string=text, width=crop.width, height=crop.height)))
-    assert _psnr(shown, same) >= 40.0  # the browser and resvg draw the same picture (46 dB)

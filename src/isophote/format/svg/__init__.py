@@ -6,17 +6,22 @@ What a file holds
 =================
 One document does two jobs:
 
-- a PREVIEW that any browser, Inkscape or resvg shows as the photograph: the Y channel's
-  contours filled flat (nonzero rule) with the mean colour of the isophote render inside
-  each contour's region, stacked by the painter's algorithm (every parent before its
-  children, so each contour paints its whole footprint and its children paint over it:
-  no gaps between regions, and anti-aliased edges blend neighbouring region colours, never
-  the background). A rectangle in the root region's colour lies underneath. The preview is
-  opaque: an alpha channel is kept (losslessly, hidden) but not shown.
+- a PREVIEW that any browser, Inkscape or resvg shows as the photograph: isophote's own
+  flat-fill render (``render(fill="flat")``) drawn by the viewer. Every channel's contours
+  are filled flat (nonzero rule) with their region's flat value (the middle of its band's
+  levels, through the tone curve; preview.py), stacked by the painter's algorithm (every
+  parent before its children, so each contour paints its whole footprint and its children
+  paint over it: no gaps between regions), over a rectangle in the root region's value.
+  A yuv image paints Y, U and V as the red, green and blue components of one group (U and
+  V blended on with ``mix-blend-mode:lighten``), and an ``feColorMatrix`` filter turns
+  that (Y, U, V) into RGB with colour.py's matrix; a grey image paints Y in grey. Edges are
+  crisp by default (``shape-rendering="crispEdges"``: each pixel shows the region at its
+  centre, as the flat render at 1x does; ``to_svg(vi, crisp=False)`` anti-aliases). The
+  preview is opaque: an alpha channel is kept (losslessly, hidden) but not shown.
 - the DATA: every contour of every channel, its level, its parent, its border flags, every
   cap annotation, the levels, base band and tone curve of each channel, and the image's
-  size, colour, source depth and meta. The Y contours ARE the preview's paths (nothing is
-  stored twice); U, V and A sit in hidden layers. ``from_svg(to_svg(vi))`` equals ``vi`` exactly
+  size, colour, source depth and meta. The Y, U and V contours ARE the preview's paths
+  (nothing is stored twice); A sits in a hidden layer. ``from_svg(to_svg(vi))`` equals ``vi`` exactly
   (``VectorImage.equals``, dtypes included, for any valid image, on the 1/64 grid or not).
 
 Layout::
@@ -26,18 +31,22 @@ Layout::
          version="1.1" width="W" height="H" viewBox="0 0 W H"
          iso:format="1" iso:width="W" iso:height="H" iso:colour="yuv" iso:source-depth="8">
       <metadata><iso:meta>{"json":"object"}</iso:meta></metadata>     (only if meta)
-      <defs><linearGradient id="isophote-g12" .../> ...</defs>      (preview only)
-      <rect width="W" height="H" fill="#rrggbb"/>                      (preview only)
-      <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
-         transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
-         iso:base-band="0" iso:caps="contour band x y value ..."
-         [iso:tone="x0 y0 x1 y1 ..."] [iso:cap-ramp="R" or "dome"]>
-        <path iso:c="k level parent orientation segments" [iso:b="0011..."]
-              fill="#rrggbb" d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
-        ...
+      <defs><filter id="isophote-yuv" ...><feColorMatrix .../></filter></defs>  (yuv only)
+      <g filter="url(#isophote-yuv)" shape-rendering="crispEdges">   (grey: no filter)
+        <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
+           transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
+           iso:base-band="0" iso:caps="contour band x y value ..."
+           [iso:tone="x0 y0 x1 y1 ..."] [iso:cap-ramp="R" or "dome"] stroke="none">
+          <rect width="64W" height="64H" fill="#yy0000"/>            (the root region)
+          <path iso:c="k level parent orientation segments" [iso:b="0011..."]
+                fill="#yy0000" d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
+          ...
+        </g>
+        <g id="isophote-U" ... stroke="none" style="mix-blend-mode:lighten">
+          <rect ... fill="#00uu00"/> <path ... fill="#00uu00" .../> ... </g>
+        <g id="isophote-V" ... style="mix-blend-mode:lighten"> ... fill="#0000vv" ... </g>
       </g>
-      <g id="isophote-U" ... style="display:none" fill="none" stroke="#..."> ... </g>
-      ...
+      <g id="isophote-A" ... style="display:none" fill="none" stroke="#..."> ... </g>
     </svg>
 
 The canvas is ``iso:width`` x ``iso:height`` source pixels (model.py's coordinates; the
@@ -68,17 +77,23 @@ from the contour's first point to the nearest layer unit, used when the markers 
 Tone: ``iso:tone`` (only on a channel that has a tone curve, model.py's Channel.tone) lists
 the curve's knots as "x y" pairs in order, shortest round-trip decimals (exact): at least
 two knots, at most MAX_TONE_KNOTS (.isoph's limit), every number in [0, 255], x strictly increasing, y
-non-decreasing. No attribute: no tone curve. The preview's colours are taken from the
-render, so they show the tone curve too.
+non-decreasing. No attribute: no tone curve. The preview's values go through the tone
+curve, as the render's do.
 
 Cap ramp: ``iso:cap-ramp`` (only on a channel whose Channel.cap_ramp is not model.py's
 CAP_RAMP) is the ramp in pixels, a positive number, or "dome" for DOME (caps without a
 plateau, as equalisation leaves them). No attribute: CAP_RAMP.
 
-Preview colours: each Y region's mean over a 1x render of the image (by default the flat
-fill), or, where the colour drifts across a region enough to matter (GRADIENT_MIN_GAIN), a
-linear gradient (the best single-direction plane through the region's colours); the
-gradients sit in ``<defs>`` and are not data.
+Preview colours: each region's flat value rounded to 8 bits (browsers keep 8 bits per
+component in the group the filter reads): at most 0.5 off in Y, U and V, 1.4 in R, G, B.
+The preview is not data (the reader ignores fills, rectangles, filter and blend modes). Its
+cost is one fill attribute per contour (15 bytes), a rectangle per layer and the filter: the
+file is the contours' path data plus about 15 bytes a contour, never anything per pixel.
+Colour profiles: a yuv master that carries an ICC profile in meta (icc.py) keeps it in the
+SVG's meta, and its preview's filter ends in an affine map to sRGB fitted to LittleCMS on
+the image's own colours (preview.icc_affine; chelsea in Adobe RGB: the SVG in resvg 40.4 dB
+against LittleCMS's conversion of the flat render, 32.2 dB without); a grey image's
+preview shows its coded values as sRGB.
 
 Reading edited files
 ====================
@@ -101,8 +116,8 @@ What a drawing program may do, and what ``from_svg`` makes of it:
   hang from the frame (-1), caps of its region are dropped (the renderer uses neither
   parents nor cap contours, only band windings and cap positions).
 - z-order, grouping, ids, styles, colours, layer visibility, other namespaces, and paths,
-  shapes or text without ``iso:c`` (a drawing program's additions, the preview's rectangle
-  and gradients): ignored.
+  shapes or text without ``iso:c`` (a drawing program's additions, the preview's rectangles and
+  filter): ignored.
 
 Checked with Inkscape 1.2 (tests/test_svg.py, where it is installed): open and save keeps
 the image exactly; rotate, flip and align (move) are honoured, caps included.
@@ -120,10 +135,10 @@ work is linear in the size of the text.
 
 Where it lives
 ==============
-write.py (to_svg, save_svg), preview.py (the preview's colours), pathdata.py (SVG path data
-and transforms in general, and the fast path for the writer's own layout), read.py
-(from_svg, load_svg, is_svg), profile.py (the profile's constants, its tone rule and the
-contours' exact signed areas); the limits and the checks shared with .isoph are
+write.py (to_svg, save_svg), preview.py (the preview's region values, paints and filter),
+pathdata.py (SVG path data and transforms in general, and the fast path for the writer's own layout), read.py
+(from_svg, load_svg, is_svg), profile.py (the profile's constants and its tone rule; the
+orientation flags are geometry.signed_areas' signs); the limits and the checks shared with .isoph are
 format/limits.py and format/validate.py.
 """
 
@@ -131,7 +146,7 @@ from __future__ import annotations
 
 from ..limits import MAX_SVG_BYTES, SVG_FORMAT_VERSION
 from .pathdata import parse_path, parse_transform
-from .profile import NS_ISO, _signed_areas  # noqa: F401  (_signed_areas: tests/test_svg.py)
+from .profile import NS_ISO
 from .read import from_svg, is_svg, load_svg
 from .write import save_svg, to_svg
 

@@ -24,7 +24,8 @@ from .pathdata import (
     IDENTITY, INT_RE, NUM_RE, apply_affine, canonical_chain_parts, canonical_chains, compose,
     parse_path_markers, parse_transform,
 )
-from .profile import MAX_CAP_VALUE, MAX_COORD, NS_ISO, NS_SVG, _signed_areas, check_svg_tone
+from ...geometry import signed_areas
+from .profile import MAX_CAP_VALUE, MAX_COORD, NS_ISO, NS_SVG, check_svg_tone
 
 _S = "{%s}" % NS_SVG
 _I = "{%s}" % NS_ISO
@@ -380,7 +381,7 @@ def _placed_chains(label, entries, mats):
 def _turn_back(entries, offsets, points, so, border) -> None:
     """Reverse, in place, every contour whose area changed sign (mirrored, reversed)."""
     stored = np.array([e[3] for e in entries], np.int64)
-    now = np.sign(_signed_areas(points, offsets)).astype(np.int64)
+    now = np.sign(signed_areas(points, offsets)).astype(np.int64)
     for i in np.flatnonzero((stored != 0) & (now == -np.sign(stored))).tolist():
         points[offsets[i]:offsets[i + 1]] = points[offsets[i]:offsets[i + 1]][::-1]
         border[so[i]:so[i + 1]] = border[so[i]:so[i + 1]][::-1]

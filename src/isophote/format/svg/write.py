@@ -14,34 +14,34 @@ from ...imageio import atomic_write_bytes
 from ...model import CAP_RAMP, Channel, VectorImage
 from ..limits import MAX_LEVELS, SVG_FORMAT_VERSION
 from ..validate import check_cap_ramp, check_image_kind, check_levels, check_semantics, meta_bytes
-from .preview import preview_rgb, region_fills
-from .profile import (
-    LOCAL_SCALE, MAX_CAP_VALUE, MAX_COORD, NS_INKSCAPE, NS_ISO, NS_SVG, UV_STROKES, _signed_areas,
-    check_svg_tone,
-)
+from ...geometry import signed_areas
+from .preview import FILTER_ID, filter_def, icc_affine, paints
+from .profile import LOCAL_SCALE, MAX_CAP_VALUE, MAX_COORD, NS_INKSCAPE, NS_ISO, NS_SVG, UV_STROKES, check_svg_tone
 
 
-def to_svg(vi: VectorImage, preview=None) -> str:
+def to_svg(vi: VectorImage, crisp: bool = True) -> str:
     """The isophote SVG document of ``vi`` (see the module docstring).
 
     Parameters
     ----------
     vi : VectorImage
-    preview : (H, W, 3) or (H, W[, 1]) array on 0..255, optional
-        A render of ``vi`` at 1x (RGB, or grey for a grey image; extra channels such as alpha
-        are ignored) whose mean inside each Y region colours the preview. Default: the
-        flat-fill render, ``render_float(vi, fill="flat")``. Pass the diffusion render
-        if you have one: the colours are a little closer to the photograph.
+    crisp : bool
+        Ask viewers not to anti-alias the preview's region edges
+        (``shape-rendering="crispEdges"``, the default): each pixel shows the region at its
+        centre, as isophote's flat-fill render at 1x does. False: anti-aliased edges, softer
+        to look at but further from the photograph where many contours share an edge (each
+        nested contour's partial coverage paints over the last, so a sharp edge creeps
+        outwards: see benchmarks/results/svg_preview.md).
 
     Returns
     -------
     str
-        Deterministic for a given image and preview.
+        Deterministic for a given image.
 
     Raises
     ------
     ValueError
-        ``vi`` breaks the data model, or ``preview`` has the wrong shape.
+        ``vi`` breaks the data model.
     """
     try:
         _check_image(vi)
@@ -49,7 +49,6 @@ def to_svg(vi: VectorImage, preview=None) -> str:
         meta = json.dumps(json.loads(meta_bytes(vi.meta)), sort_keys=True, separators=(",", ":")) if vi.meta else ""
     except (FormatError, LimitError) as e:
         raise ValueError(f"cannot write SVG: {e}") from None
-    rgb = preview_rgb(vi, preview)
     w, h = int(vi.width), int(vi.height)
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>\n',
@@ -60,26 +59,29 @@ def to_svg(vi: VectorImage, preview=None) -> str:
     ]
     if meta:
         out.append(f"<metadata><iso:meta>{_escape(meta)}</iso:meta></metadata>\n")
+    yuv = vi.colour == "yuv"
+    if yuv:
+        out.append("<defs>\n" + filter_def(w, h, icc_affine(vi)) + "</defs>\n")
+    edges = ' shape-rendering="crispEdges"' if crisp else ""
+    out.append(f'<g filter="url(#{FILTER_ID})"{edges}>\n' if yuv else f"<g{edges}>\n")
     for ch in vi.channels:
-        fills = None
-        if ch.name == "Y":
-            fills, root, defs = region_fills(ch, rgb)
-            if defs:
-                out.append("<defs>\n" + "".join(defs) + "</defs>\n")
-            out.append(f'<rect width="{w}" height="{h}" fill="{root}"/>\n')
-        out.extend(_channel_layer(ch, fills))
+        shown = ch.name in ("Y", "U", "V")
+        if ch.name == "A":
+            out.append("</g>\n")
+        out.extend(_channel_layer(ch, paints(ch, vi.colour) if shown else None, w, h))
+    if not vi.has_alpha:
+        out.append("</g>\n")
     out.append("</svg>\n")
     return "".join(out)
 
 
-
-def save_svg(vi: VectorImage, path, preview=None, compress=None) -> None:
-    """Write ``vi`` as SVG to ``path`` atomically.
+def save_svg(vi: VectorImage, path, compress=None, crisp: bool = True) -> None:
+    """Write ``vi`` as SVG to ``path`` atomically (``crisp``: see to_svg).
 
     ``compress`` None: gzip (SVGZ) when the name ends in ``.svgz``. The gzip stream is
     deterministic (mtime 0, no file name).
     """
-    data = to_svg(vi, preview=preview).encode("utf-8")
+    data = to_svg(vi, crisp=crisp).encode("utf-8")
     if compress is None:
         compress = os.fspath(path).lower().endswith(".svgz")
     if compress:
@@ -151,8 +153,9 @@ def _nums(a: np.ndarray) -> list:
     return out
 
 
-def _channel_layer(ch: Channel, fills) -> list:
-    """The <g> layer of one channel, as a list of strings."""
+def _channel_layer(ch: Channel, paint, w: int, h: int) -> list:
+    """The <g> layer of one channel, as a list of strings. ``paint``: (root fill, contour
+    fills) of a shown layer (preview.paints), None for a hidden one (alpha)."""
     label = ch.name
     c = ch.n_contours
     q = ch.points * LOCAL_SCALE  # exact (power of two)
@@ -168,18 +171,22 @@ def _channel_layer(ch: Channel, fills) -> list:
         attrs.append(f'iso:tone="{" ".join(_nums(np.asarray(ch.tone, np.float64).reshape(-1)))}"')
     if float(ch.cap_ramp) != CAP_RAMP:
         attrs.append(f'iso:cap-ramp="{"dome" if math.isinf(ch.cap_ramp) else repr(float(ch.cap_ramp))}"')
-    if fills is None:
+    if paint is None:
         attrs.append(f'style="display:none" fill="none" stroke="{UV_STROKES.get(label, "#000")}" '
                      f'stroke-width="{LOCAL_SCALE // 4}"')
     else:
-        attrs.append('stroke="none"')
+        attrs.append('stroke="none"' + (' style="mix-blend-mode:lighten"' if label in ("U", "V") else ""))
     out = [f"<g {' '.join(attrs)}>\n"]
+    fills = None
+    if paint is not None:
+        root, fills = paint
+        out.append(f'<rect width="{w * LOCAL_SCALE}" height="{h * LOCAL_SCALE}" fill="{root}"/>\n')
     if c == 0:
         out.append("</g>\n")
         return out
     d = _path_data(q, ch.offsets, ch.cap_xy * LOCAL_SCALE, ch.cap_contour)
     so = ch.segment_offsets()
-    area = np.sign(_signed_areas(ch.points, ch.offsets)).astype(np.int64)
+    area = np.sign(signed_areas(ch.points, ch.offsets)).astype(np.int64)
     nseg = np.diff(so).tolist()
     level, parent = ch.contour_level.tolist(), ch.parent.tolist()
     border = ch.border
