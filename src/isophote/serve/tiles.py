@@ -108,11 +108,12 @@ def render_tile(master: Master, region, size, fill: str = "diffusion") -> np.nda
     """(out_h, out_w, C) uint8: the region (x, y, w, h) rendered to size (out_w, out_h)."""
     w, h = size
     vi = master.vi
-    # The distance grid spans the canvas whatever the tile (render.check_nodes refuses more
-    # than max_pixels / 8 nodes, at most 9 a source pixel): allow what this master needs. The
-    # output itself is bounded by iiif.MAX_AREA before this is called.
+    # The renderer's memory estimate is checked against max_pixels (render/limits_render.py):
+    # allow what this master needs; the output itself is bounded by iiif.MAX_AREA before this
+    # is called. vi.tile renders through the master's preparation (render/prepare.py), so
+    # tiles of one zoom share their levels' edges, regions and block fields.
     budget = max(100_000_000, 8 * 9 * vi.width * vi.height)
-    a = vi.render(crop=tuple(float(v) for v in region), width=int(w), height=int(h), fill=fill, max_pixels=budget)
+    a = vi.tile(tuple(float(v) for v in region), (int(w), int(h)), fill=fill, max_pixels=budget)
     return a[..., None] if a.ndim == 2 else a
 
 
