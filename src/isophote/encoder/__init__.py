@@ -24,7 +24,7 @@ from ..options import EncodeOptions, make
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
-from .budget import fit_batch_points, group_segments, parse_memory
+from .budget import fit_batch_points, group_segments, overlap_fit_and_hierarchy, parse_memory
 from .levelgroups import plane_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
@@ -148,10 +148,14 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     # map_pixels and find_isolines, marched in level groups sized by the budget (same loops)
     iso = plane_isolines(plane, eps, levels, opts, group_segments(memory))
     del plane, eps
-    with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
-        tree = side.submit(build_hierarchy, iso, levels)
+    if overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
+        with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
+            tree = side.submit(build_hierarchy, iso, levels)
+            points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
+            tree = tree.result()
+    else:  # one after the other: their temporaries do not add up (same result)
+        tree = build_hierarchy(iso, levels)
         points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
-        tree = tree.result()
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(

@@ -11,6 +11,7 @@ What it sizes today (encoder/levelgroups.py, encoder/batches.py):
                    kept under GROUP_SHARE of the budget;
     fit batches    loops are fitted in batches of at most FIT_SHARE of the budget (about
                    BYTES_PER_FIT_POINT bytes a polyline point of temporaries);
+    fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL), else one.
 What it does not bound yet: the per-channel grids (values and bands, 40 bytes a grid
@@ -35,6 +36,12 @@ BYTES_PER_SEGMENT = 190
 # their tolerances and reaches, index arrays and the fitter's scratch; measured 266 bytes a
 # pixel at 3.6 points a pixel on the 16 MP mosaic's crops)
 BYTES_PER_FIT_POINT = 80
+# the hierarchy's temporaries (segment table, row buckets, region labels) and the fit's
+# whole-channel ones (joint reaches: tolerances, loop and level per point, the per-sample
+# chains) per polyline point; measured 174 and about 190 bytes a pixel at 3.6 points a pixel
+BYTES_PER_HIERARCHY_POINT = 50
+BYTES_PER_REACH_POINT = 52
+OVERLAP_SHARE = 0.25
 MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
 
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
@@ -67,3 +74,9 @@ def group_segments(memory: int) -> int:
 def fit_batch_points(memory: int) -> int:
     """The most polyline points one fit batch should hold."""
     return max(int(FIT_SHARE * memory), MIN_UNIT) // BYTES_PER_FIT_POINT
+
+
+def overlap_fit_and_hierarchy(points: int, memory: int) -> bool:
+    """Whether the hierarchy may be built alongside the fit (faster on two cores) without
+    their temporaries together exceeding OVERLAP_SHARE of the budget."""
+    return points * (BYTES_PER_HIERARCHY_POINT + BYTES_PER_REACH_POINT) <= OVERLAP_SHARE * memory

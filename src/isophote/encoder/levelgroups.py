@@ -81,13 +81,18 @@ def plane_isolines(plane, eps, levels, opts, max_segments=None) -> Isolines:
     grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, opts.carrato_cubic)
     vals, band = pad_grid(grid, levels)
     del grid
-    return march_groups(vals, band, grid_eps, levels, opts.min_tolerance, opts.max_tolerance, max_segments)
+    held = [grid_eps]  # handed over: march_groups drops the last reference once marched
+    del grid_eps
+    return march_groups(vals, band, held, levels, opts.min_tolerance, opts.max_tolerance, max_segments)
 
 
 def march_groups(vals, band, grid_eps, levels, min_tol, max_tol, max_segments) -> Isolines:
-    """The isolines of padded values and bands, level group by level group."""
+    """The isolines of padded values and bands, level group by level group (grid_eps: the
+    grid's sample errors, or a one-element list holding them, emptied here)."""
     nl = levels.shape[0]
     inner = vals[1:-1, 1:-1]
+    if isinstance(grid_eps, list):
+        grid_eps = grid_eps.pop()
     grid_eps = np.ascontiguousarray(np.broadcast_to(grid_eps, inner.shape), np.float64)
     hp, wp = vals.shape
     if max_segments is None or nl == 0:
@@ -118,24 +123,29 @@ def march_groups(vals, band, grid_eps, levels, min_tol, max_tol, max_segments) -
 
 
 def merge_groups(parts, hp, wp, nl) -> dict:
-    """The loops of all groups in order of their smallest start key, field by field (each
-    group's field is dropped once copied, so the merge holds one field twice at most)."""
+    """The loops of all groups in order of their smallest start key, field by field: each
+    group's points are scattered to their places in the output and dropped, so the merge
+    holds the groups' results, one output field and one group's destinations at a time."""
     keys = np.concatenate([loop_keys(p["below"], p["above"], p["offsets"], p["level"], hp, wp, nl)
                            for p in parts])
     order = np.argsort(keys, kind="stable")
     del keys
     lengths = np.concatenate([np.diff(p["offsets"]) for p in parts])
-    starts = np.concatenate([p["offsets"][:-1] + base for p, base in
-                             zip(parts, np.cumsum([0] + [p["offsets"][-1] for p in parts])[:-1])])
-    new_len = lengths[order]
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.shape[0])  # each loop's place in the output
     offsets = np.zeros(order.shape[0] + 1, np.int64)
-    np.cumsum(new_len, out=offsets[1:])
-    # the source index of every output point
-    src = np.repeat(starts[order] - offsets[:-1], new_len) + np.arange(int(offsets[-1]))
-    del starts, lengths, new_len
+    np.cumsum(lengths[order], out=offsets[1:])
     out = {"offsets": offsets, "level": np.concatenate([p["level"] for p in parts])[order]}
+    n_out = int(offsets[-1])
+    first = np.cumsum([0] + [p["offsets"].shape[0] - 1 for p in parts])
     for name in ("points", "tol", "below", "above", "border"):
-        whole = np.concatenate([p.pop(name) for p in parts])
-        out[name] = whole[src]
-        del whole
+        sample = parts[0][name]
+        dest = np.empty((n_out,) + sample.shape[1:], sample.dtype)
+        for k, p in enumerate(parts):
+            loops = slice(first[k], first[k + 1])
+            n = lengths[loops]
+            at = np.repeat(offsets[:-1][rank[loops]] - p["offsets"][:-1], n) + np.arange(int(p["offsets"][-1]))
+            dest[at] = p.pop(name)
+            del at
+        out[name] = dest
     return out
