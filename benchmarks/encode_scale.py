@@ -44,7 +44,6 @@ if preset != "pillow":
         t0 = time.perf_counter()
         vi = isophote.encode(a, preset=preset, **kw)
         out["encode_s"] = time.perf_counter() - t0
-        out["bytes"] = len(vi.to_bytes()) if hasattr(vi, "to_bytes") else None
 print(json.dumps(out))
 """
 
@@ -74,7 +73,7 @@ def main(argv=None) -> int:
     sizes = [float(s) for s in args.sizes.split(",")]
     rows = []
     base = run_child(args.image, 0, args.preset, args.memory)
-    rows.append(("baseline (import + 64x64 warm-up)", base["pixels"], base["peak_mb"], None, None))
+    rows.append(("baseline (import + 64x64 warm-up)", 0, base["peak_mb"], None, None))
     for mp in sizes:
         peer = run_child(args.image, mp, "pillow", args.memory)
         enc = run_child(args.image, mp, args.preset, args.memory)
@@ -88,7 +87,8 @@ def main(argv=None) -> int:
              f"({time.strftime('%Y-%m-%d')})", "",
              "| run | pixels | peak RSS MB | B/px (peak) | seconds | s/MP |", "|---|---|---|---|---|---|"]
     for name, px, peak, sec, spmp in rows:
-        lines.append(f"| {name} | {px:,} | {peak:,.0f} | {peak * 2**20 / max(px, 1):,.0f} | "
+        bpp = f"{peak * 2**20 / px:,.0f}" if px else ""
+        lines.append(f"| {name} | {px:,} | {peak:,.0f} | {bpp} | "
                      f"{'' if sec is None else f'{sec:.2f}'} | {'' if spmp is None else f'{spmp:.2f}'} |")
     text = "\n".join(lines) + "\n"
     print(text)

@@ -59,8 +59,10 @@ def encode(image, **options) -> VectorImage:
     **options : the fields of :class:`isophote.options.EncodeOptions`.
     """
     opts = make(EncodeOptions, options).resolved()
-    pixels, depth = _as_pixels(image)
-    return encode_pixels(pixels, depth, opts)
+    pixels, depth = _as_pixels(image)  # a new array, ours to drop
+    held = [pixels]
+    del pixels
+    return _encode_held(held, depth, opts)
 
 
 def _as_pixels(image):
@@ -91,6 +93,13 @@ def _as_pixels(image):
 
 def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> VectorImage:
     """Encode (H, W, C) float samples on 0..255 (C = 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA)."""
+    return _encode_held([pixels], depth, opts)
+
+
+def _encode_held(held: list, depth: int, opts: EncodeOptions) -> VectorImage:
+    """encode_pixels of the one array in ``held``, which is emptied: an RGB(A) input is
+    dropped once converted to YUV, when no one else holds it (24 bytes a pixel less)."""
+    pixels = held.pop()
     h, w, c = pixels.shape
     if c in (1, 2):
         colour, planes = "grey", [("Y", pixels[..., 0])]
@@ -99,7 +108,8 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
         yuv = rgb_to_yuv(pixels[..., :3])
         planes = [(n, yuv[..., i]) for i, n in enumerate("YUV")]
     if c in (2, 4):
-        planes.append(("A", pixels[..., -1]))
+        planes.append(("A", pixels[..., -1].copy() if c == 4 else pixels[..., -1]))
+    del pixels
     eps = opts.noise if opts.noise is not None else (0.5 if depth == 8 else 0.5 / 257.0)
     memory = parse_memory(opts.memory)  # refused before any work
     with ThreadPoolExecutor(max_workers=channel_workers(h * w, memory)) as pool:
@@ -113,6 +123,10 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
 # 4096^2 28 s against 42 s, so it is chosen only when two at a time would not fit.
 PAIR_BYTES_PER_PIXEL = 470
 MEMORY_SHARE = 0.75  # of the memory available at the start
+# Against the budget (EncodeOptions.memory) the pair is sized for textured photographs: the
+# wide corpus's mosaic, balanced, two channels at a time peaked at 785 bytes a pixel (4 MP
+# crop, benchmarks/results/encode_scale.md).
+PAIR_BYTES_PER_PIXEL_TEXTURED = 800
 
 
 def available_memory() -> int | None:
@@ -132,7 +146,7 @@ def channel_workers(pixels: int, memory: int | None = None) -> int:
     """Channels encoded at a time: two (each also uses threads of its own), or one when two
     would need more than MEMORY_SHARE of the available memory or more than the budget
     ``memory`` (bytes). The output is the same bytes either way."""
-    if memory is not None and PAIR_BYTES_PER_PIXEL * pixels > memory:
+    if memory is not None and PAIR_BYTES_PER_PIXEL_TEXTURED * pixels > memory:
         return 1
     avail = available_memory()
     if avail is not None and PAIR_BYTES_PER_PIXEL * pixels > MEMORY_SHARE * avail:

@@ -13,7 +13,7 @@ What it sizes today (encoder/levelgroups.py, encoder/batches.py):
                    BYTES_PER_FIT_POINT bytes a polyline point of temporaries);
     fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
-                   (PAIR_BYTES_PER_PIXEL), else one.
+                   (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
 What it does not bound yet: the per-channel grids (values and bands, 40 bytes a grid
 sample, 4 grid samples a pixel), the polylines of a channel (about 41 bytes a point,
 1-4 points a pixel on textured photographs) and the hierarchy's temporaries; see

@@ -100,11 +100,15 @@ def march_groups(vals, band, grid_eps, levels, min_tol, max_tol, max_segments) -
     else:
         groups = level_groups(crossings_per_level(band, nl), max_segments)
     parts, frame = [], []
+    scratch = np.empty_like(band) if len(groups) > 1 else None  # one group's bands at a time
     for a, b in groups:
-        sub = band if (a, b) == (0, nl) else (np.clip(band, a, b) - a).astype(np.int16)
+        if scratch is None:
+            sub = band
+        else:
+            sub = np.clip(band, a, b, out=scratch)
+            sub -= np.int16(a)
         (ok, points, border, below, above, t, eps_b, eps_a, grad_b, grad_a, level, offsets,
          frame_levels) = march_loops(vals, sub, levels[a:b], inner, grid_eps)
-        del sub
         if not ok:
             raise RuntimeError("marching squares produced an open contour")  # a bug, never input
         tol = tolerances(eps_b, eps_a, grad_b, grad_a, t, min_tol, max_tol)
@@ -113,7 +117,7 @@ def march_groups(vals, band, grid_eps, levels, min_tol, max_tol, max_segments) -
         frame.append(frame_levels + a)
         parts.append(dict(points=points, border=border, below=below, above=above, tol=tol,
                           level=level, offsets=offsets))
-    del grid_eps
+    del grid_eps, scratch, sub
     frame_levels = np.concatenate(frame) if frame else np.zeros(0, np.int64)
     base = frame_levels.shape[0]
     if base and not np.array_equal(np.sort(frame_levels), np.arange(base)):
