@@ -107,6 +107,9 @@ class EncodeOptions:
     carrato_cubic : weight of the cubic (Catmull-Rom) term added to the midpoints: 1 puts
         Carrato's edge-adaptive weight on Catmull-Rom's cubic base, 2 (the default) on Keys'
         sharper a = -1 cubic, 0 on the paper's linear one (see encoder.mapping).
+    memory : the working memory the encoder aims at, a size such as "2G" or "512M" (binary
+        units) or a number of bytes: it sizes the units of work (level groups, fit batches,
+        channels at a time; encoder/budget.py) and never changes the output bytes.
     """
 
     preset: str = DEFAULT_PRESET
@@ -129,6 +132,7 @@ class EncodeOptions:
     carrato_p: float = 0.5
     carrato_scale: float = 64.0
     carrato_cubic: float = 2.0
+    memory: str | float = "2G"  # encoder/budget.py DEFAULT_MEMORY
 
     def resolved(self) -> "EncodeOptions":
         """Fill the fields left at None from the preset, and validate."""

@@ -23,6 +23,9 @@ ENCODER = "encoder"
 SOURCE = "source"
 # Options too long to be worth repeating in every header: recorded by their length only.
 _LISTS = ("levels_y", "levels_u", "levels_v")
+# Options that say how to run, not what the file holds: not recorded, so that the bytes do
+# not depend on them (the memory budget changes how the encoder works, never its output).
+_NOT_RECORDED = ("preset", "memory")
 
 
 def encoder_meta(opts) -> dict:
@@ -33,7 +36,7 @@ def encoder_meta(opts) -> dict:
     given = {}
     for f in fields(opts):
         value = getattr(opts, f.name)
-        if f.name == "preset" or value is None or (f.default is not MISSING and value == f.default):
+        if f.name in _NOT_RECORDED or value is None or (f.default is not MISSING and value == f.default):
             continue
         if f.name in _LISTS:
             value = f"{len(value)} levels"

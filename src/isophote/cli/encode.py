@@ -74,6 +74,9 @@ ENCODE_FLAGS = {
                           help="how far the curves may stray at most, in source pixels: larger gives fewer "
                                "curves and a smaller file (the error ribbon's largest half-width; default: "
                                "from the preset)"),
+    "memory": dict(metavar="SIZE",
+                   help="working memory to aim at, such as 2G or 512M: larger works in bigger pieces "
+                        "(a little faster), smaller needs less; the file is the same bytes either way"),
     "carrato_p": dict(type=float, metavar="P",
                       help="edge sharpness of the 2x upsampling the contours are traced on "
                            "(Carrato's p, paper §3.2)"),

@@ -26,6 +26,8 @@ from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
+from .budget import fit_batch_points, group_segments, overlap_fit_and_hierarchy, parse_memory
+from .levelgroups import plane_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
 from .noise import prepare_plane
@@ -60,8 +62,10 @@ def encode(image, **options) -> VectorImage:
     """
     given = make(EncodeOptions, options)
     opts = given.resolved()
-    pixels, depth = _as_pixels(image)
-    return replace(encode_pixels(pixels, depth, opts), meta=encoder_meta(given))
+    pixels, depth = _as_pixels(image)  # a new array, ours to drop
+    held = [pixels]
+    del pixels
+    return replace(_encode_held(held, depth, opts), meta=encoder_meta(given))
 
 
 def _as_pixels(image):
@@ -92,6 +96,13 @@ def _as_pixels(image):
 
 def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> VectorImage:
     """Encode (H, W, C) float samples on 0..255 (C = 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA)."""
+    return _encode_held([pixels], depth, opts)
+
+
+def _encode_held(held: list, depth: int, opts: EncodeOptions) -> VectorImage:
+    """encode_pixels of the one array in ``held``, which is emptied: an RGB(A) input is
+    dropped once converted to YUV, when no one else holds it (24 bytes a pixel less)."""
+    pixels = held.pop()
     h, w, c = pixels.shape
     if c in (1, 2):
         colour, planes = "grey", [("Y", pixels[..., 0])]
@@ -100,9 +111,11 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
         yuv = rgb_to_yuv(pixels[..., :3])
         planes = [(n, yuv[..., i]) for i, n in enumerate("YUV")]
     if c in (2, 4):
-        planes.append(("A", pixels[..., -1]))
+        planes.append(("A", pixels[..., -1].copy() if c == 4 else pixels[..., -1]))
+    del pixels
     eps = opts.noise if opts.noise is not None else (0.5 if depth == 8 else 0.5 / 257.0)
-    with ThreadPoolExecutor(max_workers=channel_workers(h * w)) as pool:
+    memory = parse_memory(opts.memory)  # refused before any work
+    with ThreadPoolExecutor(max_workers=channel_workers(h * w, memory)) as pool:
         channels = list(pool.map(lambda p: encode_channel(p[0], p[1], eps, opts), planes))
     return VectorImage(width=w, height=h, colour=colour, channels=tuple(channels), source_depth=depth)
 
@@ -113,6 +126,10 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
 # 4096^2 28 s against 42 s, so it is chosen only when two at a time would not fit.
 PAIR_BYTES_PER_PIXEL = 470
 MEMORY_SHARE = 0.75  # of the memory available at the start
+# Against the budget (EncodeOptions.memory) the pair is sized for textured photographs: the
+# wide corpus's mosaic, balanced, two channels at a time peaked at 785 bytes a pixel (4 MP
+# crop, benchmarks/results/encode_scale.md).
+PAIR_BYTES_PER_PIXEL_TEXTURED = 800
 
 
 def available_memory() -> int | None:
@@ -128,10 +145,12 @@ def available_memory() -> int | None:
     return None
 
 
-def channel_workers(pixels: int) -> int:
+def channel_workers(pixels: int, memory: int | None = None) -> int:
     """Channels encoded at a time: two (each also uses threads of its own), or one when two
-    would need more than MEMORY_SHARE of the available memory. The output is the same
-    bytes either way."""
+    would need more than MEMORY_SHARE of the available memory or more than the budget
+    ``memory`` (bytes). The output is the same bytes either way."""
+    if memory is not None and PAIR_BYTES_PER_PIXEL_TEXTURED * pixels > memory:
+        return 1
     avail = available_memory()
     if avail is not None and PAIR_BYTES_PER_PIXEL * pixels > MEMORY_SHARE * avail:
         return 1
@@ -141,14 +160,19 @@ def channel_workers(pixels: int) -> int:
 def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions) -> Channel:
     levels = channel_levels(name, opts)
     cap_step = cap_value_step(eps)
+    memory = parse_memory(opts.memory)
     plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
-    grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, opts.carrato_cubic)
-    iso = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
-    del plane, eps, grid, grid_eps  # iso holds what the rest needs (16 bytes a grid sample less)
-    with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
-        tree = side.submit(build_hierarchy, iso, levels)
-        points, offsets, border = fit_isolines(iso, opts.snap)
-        tree = tree.result()
+    # map_pixels and find_isolines, marched in level groups sized by the budget (same loops)
+    iso = plane_isolines(plane, eps, levels, opts, group_segments(memory))
+    del plane, eps
+    if overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
+        with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
+            tree = side.submit(build_hierarchy, iso, levels)
+            points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
+            tree = tree.result()
+    else:  # one after the other: their temporaries do not add up (same result)
+        tree = build_hierarchy(iso, levels)
+        points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(
@@ -190,19 +214,45 @@ _ROUNDING = 0.0 if QUANT == FIT_QUANT else 0.5 / QUANT * np.sqrt(2.0)
 _JOINT_ROUNDING = 0.5 / FIT_QUANT * np.sqrt(2.0)
 
 
-def fit_isolines(iso: Isolines, snap: float):
+def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     """Fit every loop: isoline stretches become fitted Bezier runs, border stretches straight
-    segments. Returns (points, offsets, border) in the Channel layout."""
-    n_loops = iso.n_loops
-    if n_loops == 0:
+    segments. Returns (points, offsets, border) in the Channel layout.
+
+    Each loop's chain depends on its own polyline, tolerances and joint reaches alone (the
+    reaches, which look at the crossings of other loops, are found first for all), so the
+    loops are fitted in batches of at most ``max_points`` points (None: one batch) with the
+    same result: batches bound the fit's temporaries (encoder/budget.py)."""
+    if iso.n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    offs = iso.offsets
-    n_seg = np.diff(offs)
     tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
     reach = np.minimum(_joint_reach(iso, tol), np.maximum(tol - _JOINT_ROUNDING, 0.0))
+    offs = iso.offsets
+    if max_points is None or offs[-1] <= max_points:
+        return _fit_batch(iso.points, offs, iso.border, tol, reach, snap)
+    cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
+                                                          "right") - 1, [iso.n_loops]]))
+    cuts = cuts[(cuts >= 0)]
+    pts, off, brd, base = [], [np.zeros(1, np.int64)], [], 0
+    for i0, i1 in zip(cuts[:-1], cuts[1:]):
+        if i1 <= i0:
+            continue
+        o0, o1 = offs[i0], offs[i1]
+        p, o, b = _fit_batch(iso.points[o0:o1], offs[i0 : i1 + 1] - o0, iso.border[o0:o1],
+                             tol[o0:o1], reach[o0:o1], snap)
+        pts.append(p)
+        off.append(o[1:] + base)
+        brd.append(b)
+        base += int(o[-1])
+    return np.concatenate(pts), np.concatenate(off), np.concatenate(brd)
+
+
+def _fit_batch(iso_points, offs, iso_border, tol, reach, snap):
+    """fit_isolines for the loops of one batch (offs from 0; tol and reach per point)."""
+    n_loops = offs.shape[0] - 1
+    n_seg = np.diff(offs)
     seg_loop = np.repeat(np.arange(n_loops), n_seg)
     has_border = np.zeros(n_loops, bool)
-    has_border[seg_loop[iso.border]] = True
+    has_border[seg_loop[iso_border]] = True
     closed_loops = np.flatnonzero(~has_border)
     n_closed = closed_loops.shape[0]
     in_closed = ~has_border[seg_loop]
@@ -214,9 +264,9 @@ def fit_isolines(iso: Isolines, snap: float):
     # with the next run (for the loop's last run, the loop's first point).
     bl = np.flatnonzero(has_border)
     nb = n_seg[bl]
-    prev = np.arange(-1, iso.border.shape[0] - 1)
+    prev = np.arange(-1, iso_border.shape[0] - 1)
     prev[offs[:-1]] = offs[1:] - 1
-    after_border = np.flatnonzero(~iso.border & iso.border[prev] & has_border[seg_loop])
+    after_border = np.flatnonzero(~iso_border & iso_border[prev] & has_border[seg_loop])
     _, first = np.unique(seg_loop[after_border], return_index=True)
     k0 = after_border[first] - offs[bl]
     ext = nb + 1  # a loop's points in reading order, its first point repeated at the end
@@ -224,7 +274,7 @@ def fit_isolines(iso: Isolines, snap: float):
     loop_r = np.repeat(np.arange(bl.shape[0]), ext)
     pos = np.arange(int(ext.sum())) - ext_base[loop_r]
     rot = offs[bl][loop_r] + (pos + k0[loop_r]) % nb[loop_r]
-    segb = iso.border[rot]
+    segb = iso_border[rot]
     run_start = np.flatnonzero((pos < nb[loop_r]) & ((pos == 0) | (segb != np.roll(segb, 1))))
     run_loop = loop_r[run_start]
     first_run = np.ones(run_start.shape[0], bool)
@@ -244,7 +294,7 @@ def fit_isolines(iso: Isolines, snap: float):
     piece_closed = np.zeros(counts.shape[0], bool)
     piece_closed[:n_closed] = True
     chains, c_off = fit_many(
-        np.concatenate([iso.points[in_closed], iso.points[fit_idx]]).astype(np.float64),
+        np.concatenate([iso_points[in_closed], iso_points[fit_idx]]).astype(np.float64),
         np.concatenate([tol[in_closed], tol[fit_idx]]).astype(np.float64),
         np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
         piece_closed,
@@ -254,7 +304,7 @@ def fit_isolines(iso: Isolines, snap: float):
         np.concatenate([reach[in_closed], reach[fit_idx]]),
     )
     line_r = np.flatnonzero(run_line)
-    lines, l_off = _line_chains(iso.points[rot[_ranges(run_start[line_r], run_pts[line_r])]],
+    lines, l_off = _line_chains(iso_points[rot[_ranges(run_start[line_r], run_pts[line_r])]],
                                 run_pts[line_r])
 
     # A border loop's chain: its runs' chains in order, each after the first without the

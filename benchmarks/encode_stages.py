@@ -1,0 +1,91 @@
+"""Encoder memory by stage (issue 22): peak and held RSS of each stage of one channel, in
+bytes a pixel, on a crop of a photograph (default: the wide corpus's 16 MP mosaic).
+
+Peaks come from the kernel's high-water mark (VmHWM, reset before each stage by writing 5
+to /proc/self/clear_refs; Linux only), so they include what the numba kernels allocate,
+which tracemalloc does not see. Stages run one after another (the encoder runs the fit
+beside the hierarchy when the budget allows; their peaks then add).
+
+    PYTHONPATH=src .venv/bin/python benchmarks/encode_stages.py --rows 1280 --cols 1600
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import time
+
+import numpy as np
+
+from isophote import encoder as E
+from isophote.colour import rgb_to_yuv
+from isophote.encoder import budget, hierarchy, levels as L, noise
+from isophote.encoder.levelgroups import plane_isolines
+from isophote.imageio import read_image
+from isophote.options import EncodeOptions
+
+
+def rss():
+    with open("/proc/self/status") as f:
+        d = dict(line.split(":", 1) for line in f)
+    return int(d["VmRSS"].split()[0]) * 1024, int(d["VmHWM"].split()[0]) * 1024
+
+
+def reset_peak():
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+
+
+def stages(plane, name, opts, memory, report):
+    npx = plane.size
+    lev = L.channel_levels(name, opts)
+
+    def stage(label, f):
+        gc.collect()
+        r0 = rss()[0]
+        reset_peak()
+        t = time.perf_counter()
+        res = f()
+        dt = time.perf_counter() - t
+        r1, hwm = rss()
+        if report:
+            print(f"| {label} | {(hwm - r0) / npx:.0f} | {(r1 - r0) / npx:.0f} | {dt:.2f} |")
+        return res
+
+    p2, eps = stage("prepare (noise, pruning)", lambda: noise.prepare_plane(name, plane, 0.5, lev, opts))
+    iso = stage("map + isolines (level groups)",
+                lambda: plane_isolines(p2, eps, lev, opts, budget.group_segments(memory)))
+    del p2, eps
+    if report:
+        held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
+                                                    "band", "values", "offsets"))
+        print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | |")
+    stage("hierarchy", lambda: hierarchy.build_hierarchy(iso, lev))
+    stage("fit (batches)", lambda: E.fit_isolines(iso, opts.snap, budget.fit_batch_points(memory)))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--image", default="/work/wide/mosaic-16mp.png")
+    ap.add_argument("--rows", type=int, default=1280)
+    ap.add_argument("--cols", type=int, default=1600)
+    ap.add_argument("--preset", default="balanced")
+    ap.add_argument("--channel", default="Y", choices=("Y", "U", "V"))
+    ap.add_argument("--memory", default=budget.DEFAULT_MEMORY)
+    args = ap.parse_args(argv)
+    img = read_image(args.image)
+    a = np.asarray(img.pixels if hasattr(img, "pixels") else img)[: args.rows, : args.cols, :3]
+    yuv = rgb_to_yuv(a.astype(np.float64))
+    plane = np.ascontiguousarray(yuv[..., "YUV".index(args.channel)])
+    del a, yuv, img
+    opts = EncodeOptions(preset=args.preset).resolved()
+    memory = budget.parse_memory(args.memory)
+    stages(plane[:128, :128].copy(), args.channel, opts, memory, False)  # kernels loaded
+    print(f"{args.channel} of {plane.shape[1]}x{plane.shape[0]}, {args.preset}, memory {args.memory}\n")
+    print("| stage | peak B/px | held after B/px | seconds |\n|---|---|---|---|")
+    stages(plane, args.channel, opts, memory, True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,82 @@
+"""The encoder's memory budget (issue 22): how much of the work is held at once.
+
+``EncodeOptions.memory`` (``--memory``) is a byte count (``"2G"``, ``"512M"``, a number of
+bytes) that sizes the units of work; it never changes the output: the same input and
+options give the same bytes whatever the budget (tests/test_encode_budget.py).
+
+What it sizes today (encoder/levelgroups.py, encoder/batches.py):
+    level groups   marching squares runs over groups of a channel's levels (loops of one
+                   level never depend on another's), each group's working set (about 66
+                   bytes a segment for the cell table, 40 for linking and travel order)
+                   kept under GROUP_SHARE of the budget;
+    fit batches    loops are fitted in batches of at most FIT_SHARE of the budget (about
+                   BYTES_PER_FIT_POINT bytes a polyline point of temporaries);
+    fit/hierarchy  built side by side only when both sets of temporaries fit;
+    channels       two channels are encoded at a time only when two of them fit
+                   (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
+What it does not bound yet: the per-channel grids (values and bands, 40 bytes a grid
+sample, 4 grid samples a pixel), the polylines of a channel (about 41 bytes a point,
+1-4 points a pixel on textured photographs) and the hierarchy's temporaries; see
+docs/streaming.md for the strip design that does.
+"""
+
+from __future__ import annotations
+
+import re
+
+from ..errors import OptionError
+
+DEFAULT_MEMORY = "2G"  # a laptop's share: the issue's target for a 16 MP photograph
+GROUP_SHARE = 0.125
+FIT_SHARE = 0.125
+# marching working set per segment (encoder/_kernels/marching.py: the cell table 66 bytes,
+# links and travel order 16, the travel-order buffer 32, per-point outputs 73)
+BYTES_PER_SEGMENT = 190
+# fit temporaries per point (encoder/__init__.py fit_isolines: the concatenated pieces,
+# their tolerances and reaches, index arrays and the fitter's scratch; measured 266 bytes a
+# pixel at 3.6 points a pixel on the 16 MP mosaic's crops)
+BYTES_PER_FIT_POINT = 80
+# the hierarchy's temporaries (segment table, row buckets, region labels) and the fit's
+# whole-channel ones (joint reaches: tolerances, loop and level per point, the per-sample
+# chains) per polyline point; measured 174 and about 190 bytes a pixel at 3.6 points a pixel
+BYTES_PER_HIERARCHY_POINT = 50
+BYTES_PER_REACH_POINT = 52
+OVERLAP_SHARE = 0.25
+MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
+
+_UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+
+
+def parse_memory(value) -> int:
+    """Bytes from a memory option: a positive number of bytes, or a number with a unit
+    K, M, G or T (binary: 2G = 2 * 2**30 bytes; a trailing B or iB is allowed)."""
+    if value is None:
+        value = DEFAULT_MEMORY
+    if isinstance(value, bool):
+        raise OptionError(f"memory must be a size such as 2G or 512M, got {value!r}")
+    if isinstance(value, (int, float)):
+        n = float(value)
+    else:
+        m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([KMGT]?)(I?B)?\s*", str(value).upper())
+        if not m:
+            raise OptionError(f"memory must be a size such as 2G or 512M, got {value!r}")
+        n = float(m.group(1)) * _UNITS[m.group(2)]
+    if not n > 0 or n != n or n == float("inf"):
+        raise OptionError(f"memory must be a positive size, got {value!r}")
+    return int(n)
+
+
+def group_segments(memory: int) -> int:
+    """The most segments a level group should hold."""
+    return max(int(GROUP_SHARE * memory), MIN_UNIT) // BYTES_PER_SEGMENT
+
+
+def fit_batch_points(memory: int) -> int:
+    """The most polyline points one fit batch should hold."""
+    return max(int(FIT_SHARE * memory), MIN_UNIT) // BYTES_PER_FIT_POINT
+
+
+def overlap_fit_and_hierarchy(points: int, memory: int) -> bool:
+    """Whether the hierarchy may be built alongside the fit (faster on two cores) without
+    their temporaries together exceeding OVERLAP_SHARE of the budget."""
+    return points * (BYTES_PER_HIERARCHY_POINT + BYTES_PER_REACH_POINT) <= OVERLAP_SHARE * memory
