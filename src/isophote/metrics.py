@@ -22,8 +22,8 @@ flip           lower, 0..1                0.0           ``flip-evaluator`` (LDR-
 =============  =========================  ============  ================================
 
 SSIMULACRA2 reads as: 90 visually lossless at 1:1, 70 high quality, 50 medium quality,
-30 low quality. It is the slowest metric (about 0.4 s for 512 x 512, against 0.3 s for FLIP,
-0.15 s for SSIM and 10 ms for PSNR).
+30 low quality. It is the slowest metric, then FLIP, SSIM and PSNR (measured:
+benchmarks/results/design_choices.md#metric-speed).
 
 The optional packages come with ``pip install isophote[metrics]``; a metric whose package
 is missing raises :class:`~isophote.errors.OptionError` naming that extra.
@@ -163,8 +163,8 @@ def ssimulacra2(ref, test) -> float:
     grey replicated to RGB). The score is computed on up
     to six scales, halving the image until a side falls under 8 pixels; images with a side
     under 256 pixels use fewer scales, as in the reference implementation, so compare scores
-    only between images of similar size. Images under 8 x 8 are refused. Pure Python:
-    about 0.4 s per 512 x 512 pair.
+    only between images of similar size. Images under 8 x 8 are refused. Pure Python, the
+    slowest metric (measured: benchmarks/results/design_choices.md#metric-speed).
     """
     try:
         from ssimulacra2 import compute_ssimulacra2

@@ -1,7 +1,8 @@
 """Registers the .isoph Pillow plugin (pillow_plugin.py) without importing Pillow.
 
 ``import isophote`` must make ``PIL.Image.open("x.isoph")`` work, but must not import Pillow
-itself (``isophote --help`` and numpy-only users should not pay 0.1-0.2 s for it). So:
+itself (``isophote --help`` and numpy-only users should not pay its import time; measured:
+benchmarks/results/design_choices.md#pillow-import). So:
 if ``PIL.Image`` is imported already, the plugin is registered now; otherwise a finder on
 ``sys.meta_path`` waits for ``PIL.Image`` to be imported (by anyone, at any time), lets it
 execute, registers the plugin, and removes itself. Nothing else is looked at: every other

@@ -138,10 +138,9 @@ def reduced(vi, width: int, height: int):
 
     The renderer's distance fields live on a grid of one node per source pixel whatever the
     output size, so a render below 1x costs what the 1x one does. Scaling the contours first
-    puts the grid at the output's size: on a 1280x800 master, a 512x320 render took 1.24 s
-    instead of 5.56 s, and 256x160 0.49 s instead of 5.95 s, both as close to the Lanczos
-    reduction of the 1x render (mean abs 0.59 and 1.02 grey levels, against 0.34 and 0.77;
-    astronaut at 256x256: 0.94 s against 2.33 s, 2.21 against 2.23)."""
+    puts the grid at the output's size: several times faster, and close to the
+    Lanczos reduction of the 1x render (measured:
+    benchmarks/results/design_choices.md#reduced-render)."""
     import numpy as np
     from dataclasses import replace
 

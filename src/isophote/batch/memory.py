@@ -11,11 +11,9 @@ from __future__ import annotations
 # (two channels at a time; README's memory paragraph, encoder/__init__.py's
 # PAIR_BYTES_PER_PIXEL for the fit alone); the high end is taken. A render holds its
 # output, and per channel the distance fields on the node grid and the strips in flight:
-# ~250 bytes an output pixel at 3x. Measured with /usr/bin/time -v on a 1280 x 720 window
-# of the wide corpus's Path.jpg (balanced preset): a process that only loads isophote and
-# the master peaks at 277 MB, the encode at 1429 MB ((1429 - 277) MB / 0.92 MP = 1250 B/px),
-# its UHD (3840 x 2160) render at 2354 MB ((2354 - 277) MB / 8.3 MP = 250 B/px). At UHD the
-# render, not the encode, is an HD frame's peak.
+# ~250 bytes an output pixel at 3x. The constants below are measured peaks of an HD window
+# of the wide corpus (benchmarks/results/design_choices.md#batch-memory). At UHD the render,
+# not the encode, is an HD frame's peak.
 ENCODE_BYTES_PER_PIXEL = 1250
 RENDER_BYTES_PER_PIXEL = 250
 PROCESS_BYTES = 280 * 2**20

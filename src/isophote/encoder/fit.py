@@ -24,8 +24,9 @@ polyline point k and every point x of the returned chain:
 * with ``coarsen`` > 0 (the file's grids) every joint, ends included, is then rounded to
   the 1/64 px grid, and each segment's handles are put on a grid of the file's and checked
   there: the coarsest that fits, else the 1/64 px grid itself, else another rounding of
-  their four coordinates to it; only a segment none of those fits (0.04-0.6 % of the
-  encoder's, by channel) keeps handles off that grid. So the file's rounding moves nothing
+  their four coordinates to it; only a segment none of those fits (a small fraction of the
+  encoder's; measured: benchmarks/results/design_choices.md#handle-grid-fallback) keeps
+  handles off that grid. So the file's rounding moves nothing
   but those handles (by up to 1/128 px a coordinate), and the tests above hold for the
   stored chain elsewhere;
 * output is finite and deterministic (same input, same bytes).

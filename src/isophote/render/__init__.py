@@ -261,18 +261,11 @@ def node_resolution(width: int, height: int, scale: float, chroma: bool = False)
 
     1 for renders at or below the source size (a node per pixel, on its centre); for
     enlargements up to 2x, 2 (at exactly 2x every target sample is a node, so nothing is
-    interpolated); above 2x, 3 (finer bands, and no steps near the border: a radial gradient
-    rendered at 4x keeps every jump between neighbouring pixels below 1.3 grey levels with
-    r=3, 1.4 with r=2, up to 3.0 with r=1), within NODE_BUDGET nodes.
-    Measured at 1x on astronaut and coffee (PSNR dB / FLIP): r=1 39.42/0.0469 and
-    39.32/0.0453, r=2 39.38/0.0488 and 39.10/0.0467, r=3 39.59/0.0467 and 39.58/0.0447,
-    r=4 39.54/0.0473 and 39.33/0.0457, r=3 costing 5x the time of r=1.
-    Enlargements (corpus, box-downsampled, rendered back, mean PSNR dB / SSIMULACRA2): at
-    2x r=2 30.02 / 44.3 and r=3 30.01 / 44.3, r=2 in half the time (astronaut at 1.25x to
-    2x: 1.0 s against 2.1-2.2 s, 48-50 dB apart); at 4x r=2 26.61 / 7.2, r=3 26.67 / 9.3.
-    The chroma channels (``chroma``) keep 2 above 2x: at 4x, U and V at r=2 give 26.667 / 9.28
-    against 26.673 / 9.33 with every channel at r=3, and astronaut at 3840 x 3840 renders in
-    2.99 s instead of 3.37 s (their fields cost less than half as much).
+    interpolated); above 2x, 3 (finer bands, and no steps near the border), within
+    NODE_BUDGET nodes. At 1x, r=1 is nearly as faithful as r=3 for a fifth of the time; at
+    2x, r=2 matches r=3 in half the time; at 4x, r=3 is better. The chroma channels
+    (``chroma``) keep 2 above 2x: their fields cost less than half as much, for almost no
+    loss (measured: benchmarks/results/design_choices.md#node-resolution).
     """
     if scale > 1.0 + 1e-9:
         for r in ((2,) if scale <= 2.0 + 1e-9 or chroma else (3, 2)):

@@ -18,7 +18,9 @@ from ._kernels.raster import rasterise
 from ._kernels.sharpen import correction
 
 MODES = {"euclidean": MODE_EUCLIDEAN, "manhattan": MODE_MANHATTAN, "geodesic": MODE_GEODESIC}
-MAX_SWEEPS = 1  # one forward+backward pair: more change the corpus renders by < 0.01 dB
+# one forward+backward pair: more barely change the corpus renders
+# (measured: benchmarks/results/design_choices.md#distance-sweeps)
+MAX_SWEEPS = 1
 
 
 @dataclass

@@ -21,22 +21,16 @@ canvas, like the distances, so crops and tiles of a render stay exactly the corr
 part of the full render. Where a neighbour one pixel away lies off the canvas, that
 axis's second difference is 0 (linear extrapolation: a ramp stays a ramp to the border).
 
-Measured (benchmarks/apply.py protocol: corpus box-downsampled, encoded with high, rendered
-back, mean PSNR dB / SSIMULACRA2 against the original), the same correction applied to the
-render by a per-pixel Laplacian, and on the node grid with r = 3 and 2:
-    4x: none 27.05 / 23.4; per pixel K = 0.1 27.35 / 35.3; nodes r = 3 K = 0.1 27.36 / 34.8,
-        K = 0.15 27.30 / 35.9; r = 2 K = 0.1 27.34 / 33.6, K = 0.15 27.31 / 34.9
-        (Pillow's bicubic 26.99 / 28.8, Lanczos 27.15 / 32.3).
-    2x: none 30.67 / 56.6; K = 0.1 31.08 / 62.3; K = 0.15 31.03 / 63.3 (Lanczos 30.96 / 63.0).
-    8x: none 24.36 / -36.6; K = 0.1 24.64 / -28.9; K = 0.15 24.60 / -28.3 (Lanczos 24.41 / -32.7).
-The default K, 0.125 (RenderOptions.sharpen), lies between the two: 4x 27.35 / 35.7, 2x
-31.07 / 62.9 (balanced: 4x 27.23 / 29.5, 2x 30.80 / 58.6).
+Measured on the corpus enlargements of benchmarks/apply.py against no correction, the same
+correction applied per pixel, and Pillow's bicubic and Lanczos: on the node grid it does as
+well as per pixel and beats Lanczos at 2x, 4x and 8x; K = 0.1 favours PSNR, 0.15
+SSIMULACRA2, and the default K, 0.125 (RenderOptions.sharpen), lies between the two
+(measured: benchmarks/results/design_choices.md#sharpen-k).
 
-Like any sharpening it rings at hard edges: a disc of 200 on 50 rendered at 4x reaches 27 and
-228 (at 8x 23 and 232), where Pillow's Lanczos reaches 18 and 232 and its bicubic 30 and 220;
-across a straight step of 50 to 150, 46 and 155 (Lanczos 38 and 162). Clamping the corrected
-nodes to their neighbourhood's range (no ringing at all) cost 2-3 points of SSIMULACRA2 at 2x
-and 4x on the corpus (high, 4x: 33.0 against 35.7), so it is not done.
+Like any sharpening it rings at hard edges, less than Pillow's Lanczos does. Clamping the
+corrected nodes to their neighbourhood's range (no ringing at all) costs SSIMULACRA2 at 2x
+and 4x on the corpus, so it is not done (measured:
+benchmarks/results/design_choices.md#sharpen-no-clamp).
 """
 
 from __future__ import annotations

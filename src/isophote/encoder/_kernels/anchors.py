@@ -17,7 +17,7 @@ from numba import njit
 
 # At most this many crossings of one loop move onto one sample: two are a corner the loop
 # cuts at the sample; four would shrink a loop round the sample onto it (area 0; a perspective
-# warp of astronaut turned such a loop inside out and lost 1 dB).
+# warp turned such a loop inside out; measured: benchmarks/results/design_choices.md#per-loop).
 PER_LOOP = 2
 
 

@@ -11,8 +11,9 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    neighbouring segments are alike. While the span fits, j gallops on by g/2, g, 2g, ...
    edges (at least 1); then a binary search between the last fitting and the first failing
    end keeps the longest end found to fit. A span of one edge always fits (the straight
-   segment through its two points). Against growing from i+2 by doubling, this tries 24 %
-   fewer spans (astronaut, paper: 4.0 against 5.3 a segment) for 0.6 % more segments.
+   segment through its two points). Against growing from i+2 by doubling, this tries
+   fewer spans for slightly more segments (measured:
+   benchmarks/results/design_choices.md#fit-first-guess).
 2. A span fits when a cubic with the span's end points passes two tests after one of up
    to ``ITERATIONS`` fits of its inner controls. The first fit is Schneider's: least squares
    (weights 1/tol^2) over chord-length parameters. Each later one is a Gauss-Newton step of
@@ -24,8 +25,9 @@ The algorithm, for one polyline ``q`` (N points) with per-point tolerance ``tol`
    the whole curve lies within max(tol[e], tol[e+1]) of some edge e of the span (so it
    cannot bulge between points): on each interval u[k]..u[k+1] either the curve's
    excursion from its chord (curv du^2 / 8) plus the larger point error of the interval's
-   ends is within edge k's tolerance (a bound, no sampling: 77 % of the intervals tested
-   on astronaut's Y, and fitting 15-20 % faster than sampling every interval), or every
+   ends is within edge k's tolerance (a bound, no sampling: it settles most intervals, and
+   fitting is faster than sampling every interval; measured:
+   benchmarks/results/design_choices.md#fit-chord-bound), or every
    two neighbouring curve samples (at u[k], between, at u[k+1]) lie within one same edge's
    tolerance less a margin that bounds the curve's excursion from their chord. Between
    points the curve must also run the way of its edge (no fish-tail loops inside the

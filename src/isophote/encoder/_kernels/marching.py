@@ -27,9 +27,8 @@ the samples one step beyond either end, or the end's own value on the padding), 
 radius 3 so that it rises monotonically. Crossings of several levels on one edge keep
 their order, so loops still never cross; on a linear ramp the cubic is the straight line.
 The grid's midpoints are cubic interpolants already (encoder/mapping.py); the cubic
-crossing carries that between the samples. Corpus, 4x enlargement, high preset (PSNR /
-SSIMULACRA2): linear crossings 26.80 / 17.4, cubic 26.92 / 20.8; at 1x the balanced preset
-goes from 41.48 to 41.67 dB for 0.7 % more bytes.
+crossing carries that between the samples: better enlargements and a better 1x render
+for slightly more bytes (measured: benchmarks/results/design_choices.md#cubic-crossings).
 
 Linking: the segment after s starts where s ends, on the same edge and level, in the cell
 across that edge, so :func:`march_loops` finds it among that cell's few segments (no sort);

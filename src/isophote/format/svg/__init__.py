@@ -91,9 +91,9 @@ cost is one fill attribute per contour (15 bytes), a rectangle per layer and the
 file is the contours' path data plus about 15 bytes a contour, never anything per pixel.
 Colour profiles: a yuv master that carries an ICC profile in meta (icc.py) keeps it in the
 SVG's meta, and its preview's filter ends in an affine map to sRGB fitted to LittleCMS on
-the image's own colours (preview.icc_affine; chelsea in Adobe RGB: the SVG in resvg 40.4 dB
-against LittleCMS's conversion of the flat render, 32.2 dB without); a grey image's
-preview shows its coded values as sRGB.
+the image's own colours (preview.icc_affine; measured:
+benchmarks/results/design_choices.md#svg-icc-affine); a grey image's preview shows its
+coded values as sRGB.
 
 Reading edited files
 ====================

@@ -120,10 +120,9 @@ def icc_affine(vi):
     An SVG filter cannot apply the profile's curves exactly (browsers and resvg keep 8 bits
     between filter primitives, so a linear-light stage would band the shadows), but one
     affine map folds into the YUV -> RGB matrix for free; fitted on the image's colours it
-    comes close (chelsea in Adobe RGB: the fit 49.6 dB against LittleCMS on the flat render,
-    the SVG in resvg 40.4 dB, edges included, where the coded values shown as sRGB are
-    32.2 dB; a fit over the whole RGB cube would be worse than nothing, 29.3 dB, since no
-    single affine map follows the gamut's corners)."""
+    comes close to LittleCMS, far closer than showing the coded values as sRGB; a fit over
+    the whole RGB cube would be worse than nothing, since no single affine map follows the
+    gamut's corners (measured: benchmarks/results/design_choices.md#svg-icc-affine)."""
     from ... import icc
 
     prof = icc.profile_of(vi.meta)

@@ -2,8 +2,8 @@
 render.quantise, which the tests hold it to).
 
 The render's last step at large sizes: three float32 planes in, one uint8 or uint16 image
-out, without the float64 (H, W, 3) intermediates of the NumPy path (at 3840 x 3840 those are
-350 MB and about 0.4 s of processor time).
+out, without the float64 (H, W, 3) intermediates of the NumPy path (at 3840 x 3840 each
+is 350 MB; the time saved: benchmarks/results/design_choices.md#fused-colour).
 """
 
 from __future__ import annotations

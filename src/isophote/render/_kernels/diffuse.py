@@ -22,20 +22,21 @@ band's width and step are read at the first node PROBE (or 2 PROBE) past the iso
 same slope is computed from both sides (the mean is symmetric), so the fill is G1 across
 isolines; the mean is monotone, so no overshoot; a ramp stays exactly a ramp. Its weights
 lean towards the wider band's own slope: the standard PCHIP weighting leans the other way,
-and streaked smooth skies (rocket SSIMULACRA2 64.0 -> 59.8) where the neighbour read changes
-between samples. A cap's ramp becomes the Hermite curve from its isoline (blended slope) to
-its plateau (zero slope). Measured on the corpus at 1x (mean PSNR / SSIMULACRA2 / FLIP):
-linear 40.20 / 71.9 / 0.0413, G1 40.39 / 72.7 / 0.0391; PROBE 0.5 beat 0.05, 0.25 and 1.25.
+and streaked smooth skies where the neighbour read changes between samples. A cap's ramp
+becomes the Hermite curve from its isoline (blended slope) to its plateau (zero slope). G1
+beats the linear blend on the corpus at 1x on every metric, and PROBE 0.5 beat the other
+distances tried (measured: benchmarks/results/design_choices.md#g1-profiles).
 Fill "linear" keeps the paper's formula.
 
 Shortcut at enlargements: a sample whose four surrounding nodes share its band
 lies in a cell no isoline crosses, and takes the bilinear interpolation of the four nodes'
-fill values; only samples in cells an isoline crosses are evaluated exactly. Against exact
-evaluation everywhere (astronaut and camera, 2x to 7.5x): 61.7-62.6 dB, with differences
-above 2 grey levels on 0.003-0.007 % of the pixels, where a band's fill has a crease (the
-medial axis between two sources of one side) that the bilinear cell rounds off. Render time
-at 3840 wide about halved. (Until 2026-11 the shortcut also asked every node to lie 2.5
-nodes from every source, which left half the cells to exact evaluation.)
+fill values; only samples in cells an isoline crosses are evaluated exactly. It stays very
+close to exact evaluation everywhere, differing visibly only on a tiny share of pixels
+where a band's fill has a crease (the medial axis between two sources of one side) that
+the bilinear cell rounds off, and it about halves the render time of large enlargements
+(measured: benchmarks/results/design_choices.md#bilinear-shortcut). (Until 2026-11 the
+shortcut also asked every node to lie 2.5 nodes from every source, which left half the
+cells to exact evaluation.)
 
 Caps: a region (8-connected nodes of one band) with sources on one side only is a peak or a
 pit, rendered with the cap profile of model.py: C = L + (v_cap - L) * min(1, d / min(d_max,
@@ -62,7 +63,9 @@ SX, SY, D, V, TX, TY = 0, 1, 2, 3, 4, 5
 NF = 6
 PROBE = 0.5  # node units past an isoline where the neighbouring band is read (_across)
 SEED_TILE = 64  # nodes a side of the tiles seed() visits
-HALF = 0.25  # node units; measured at 1x (astronaut, coffee; PSNR dB / FLIP): 0 39.54/0.0466 39.33/0.0452, 0.25 39.58/0.0468 39.36/0.0453, 0.75 39.52/0.0474 39.34/0.0458, 1.0 39.29/0.0479 39.08/0.0465
+# node units; the best PSNR of the half-lengths tried
+# (measured: benchmarks/results/design_choices.md#source-half-length)
+HALF = 0.25
 
 _OFFS = {
     MODE_EUCLIDEAN: [(-1, -1), (-1, 0), (-1, 1), (0, -1)],
