@@ -63,7 +63,7 @@ def find_isolines(grid, grid_eps, levels, min_tol=0.05, max_tol=0.5) -> Isolines
     One compiled pass (_kernels/marching.py: march_loops) marches, links the segments into
     loops and gathers, per point, the sample errors and gradient magnitudes that
     ribbon.tolerances turns into tolerances (the gradient as ribbon.gradient_magnitude's,
-    at the samples next to a crossing only; tests/test_kernels.py holds them equal).
+    at the samples next to a crossing only; tests/encoder/test_encoder_kernels.py holds them equal).
     """
     levels = np.ascontiguousarray(levels, np.float64)
     grid = np.ascontiguousarray(grid, np.float64)

@@ -14,7 +14,7 @@ coding which loops are kept.
 "hybrid" approximates the render of such a split file: the fine render within two pixels of
 a marked pixel, the coarse one elsewhere (luma PSNR against the original).
 
-    .venv/bin/python benchmarks/split_potential.py [--images astronaut,coffee] [--out DIR]
+    .venv/bin/python benchmarks/studies/split_potential.py [--images astronaut,coffee] [--out DIR]
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))  # benchmarks/: corpus, peers, speed, apply
 
 from corpus import corpus_of, corpus_parser, write_report  # noqa: E402
 
@@ -98,7 +99,7 @@ def main(argv=None):
     lines = ["# Local level splitting (§6): what it could save", "",
              "Segments of the intermediate levels' loops that lie wholly where the coarse render "
              "(doubled steps) is within the bound of the original, in every channel "
-             "(`benchmarks/split_potential.py`; its docstring has the method). Luma PSNR dB.", ""]
+             "(`benchmarks/studies/split_potential.py`; its docstring has the method). Luma PSNR dB.", ""]
     head = ("| preset | image | segments fine | coarse | intermediate | "
             + " | ".join(f"droppable at {b:g}" for b in BOUNDS)
             + " | Y fine | Y coarse | " + " | ".join(f"Y hybrid {b:g}" for b in BOUNDS) + " |")

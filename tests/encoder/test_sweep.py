@@ -1,5 +1,5 @@
 """The sweep that builds the hierarchy (_kernels/enclose.py sweep_enclosing) against rays
-(innermost_enclosing, itself tested against its NumPy twin in test_kernels.py)."""
+(innermost_enclosing, itself tested against its NumPy twin in encoder/test_encoder_kernels.py)."""
 
 import numpy as np
 import pytest

@@ -6,7 +6,7 @@ if the search were free, with an oracle that knows every segment's span in advan
 
 1. Astronaut is encoded (paper preset, the issue's measure) and the fit kernel's input
    is kept, a batch per channel.
-2. The fit kernel, patched (benchmarks/fit_variants.py), fits that input four ways: as the
+2. The fit kernel, patched (benchmarks/studies/fit_variants.py), fits that input four ways: as the
    encoder does; the search alone (no G1 snapping, no coarse handles); each recorded span
    fitted once, then snapped and coarsened (the oracle: the same chains, checked); each
    recorded span fitted once and nothing more.
@@ -17,7 +17,7 @@ The bound: the encoder's processor time with the oracle's fit in place of the fi
 over the processors without loss (a lower bound on its wall time), against vtracer's time
 in the same round (vtracer runs on one thread).
 
-    .venv/bin/python benchmarks/encode_ceiling.py [--rounds 5] [--out DIR]
+    .venv/bin/python benchmarks/studies/encode_ceiling.py [--rounds 5] [--out DIR]
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))  # benchmarks/: corpus, peers, speed, apply
 
 from corpus import RESULTS, Report, load_corpus, write_report  # noqa: E402
 from fit_variants import compile_kernel, encoder_batches, patched_kernel, run  # noqa: E402

@@ -9,7 +9,7 @@ scores it as benchmarks/apply.py scores the warps (same input, reference, mask a
 beside scikit-image's bicubic and order-5 spline warps of the input and two finer grids:
 a cubic spline's values on the 2x grid and on a 4x grid, each read bilinearly.
 
-    .venv/bin/python benchmarks/warp_ceiling.py [--images astronaut,coffee] [--out DIR]
+    .venv/bin/python benchmarks/studies/warp_ceiling.py [--images astronaut,coffee] [--out DIR]
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from scipy import ndimage
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))  # benchmarks/: corpus, peers, speed, apply
 
 from apply import psnr_masked, raster_warp, warp_cases, warp_reference  # noqa: E402
 from corpus import corpus_of, corpus_parser, write_report  # noqa: E402
@@ -78,7 +79,7 @@ def main(argv=None):
     cols = list(next(iter(next(iter(results.values())).values())))
     lines = ["# Warps: the encoder's interpolant alone (issue 5)", "",
              "PSNR dB against the warp of the full-resolution photograph, as in apply.md "
-             "(`benchmarks/warp_ceiling.py`; its docstring has the method). The first two columns "
+             "(`benchmarks/studies/warp_ceiling.py`; its docstring has the method). The first two columns "
              "warp the input raster with scikit-image; the others read a grid bilinearly, "
              "\"encoder grid\" being the one the contours are traced on.", "",
              "| image | warp | " + " | ".join(cols) + " |", "|---|---|" + "---|" * len(cols)]

@@ -6,10 +6,15 @@ Prints the RMS prediction error for several units on the paper's linear base (cu
 "linear" is p = 0; the last two columns put the units' best on the cubic base of
 encoder/mapping.py (cubic = 1), with p = 0 and with p = 0.5.
 
-    .venv/bin/python benchmarks/carrato_scale.py
+    .venv/bin/python benchmarks/studies/carrato_scale.py
 """
 
 import numpy as np
+
+import os  # noqa: E402
+import sys  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benchmarks/: corpus
 
 from corpus import load_corpus
 from isophote.colour import rgb_to_yuv
