@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Long-running fuzzers for what strangers hand isophote: .isoph files and image files.
 
-The oracles are those of tests/test_fuzz.py (imported from there): an .isoph input must give
+The oracles are those of tests/format/test_fuzz.py (imported from there): an .isoph input must give
 a one-line FormatError / LimitError or a valid image that writes back equal and renders; an
 image file must give a Raster or an InputError / LimitError, and, when it is tiny, encode.
 

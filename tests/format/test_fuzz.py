@@ -19,7 +19,7 @@ What holds, and is tried here on generated and mutated inputs:
 Budgets. In CI every test runs a fixed, derandomised set of examples (the whole file in well
 under 60 s). Longer runs, with fresh random examples::
 
-    ISOPHOTE_FUZZ_EXAMPLES=5000 .venv/bin/python -m pytest tests/test_fuzz.py
+    ISOPHOTE_FUZZ_EXAMPLES=5000 .venv/bin/python -m pytest tests/format/test_fuzz.py
     ISOPHOTE_FUZZ_REPORT=counts.json ...   # also write the counts of outcomes per test
 
 and ``fuzz/fuzz_isoph.py`` runs a coverage-guided (atheris) or plain mutation loop for as
@@ -193,7 +193,7 @@ def vector_images(draw, extreme=True, max_side=None):
     )
 
 
-# A channel with no levels is valid (the format allows L = 0, and tests/test_format.py writes
+# A channel with no levels is valid (the format allows L = 0, and tests/format/test_format.py writes
 # one); the fill kernel read levels[0] and levels[-1] of the empty array (fixed).
 NO_LEVELS = VectorImage(3, 2, "yuv", (Channel.empty("Y", []), Channel.empty("U", [5.0]), Channel.empty("V", [])))
 

@@ -1,6 +1,6 @@
 """The SVG profile (src/isophote/format/svg.py): exact round trips, renders identical to the
 .isoph's, edits made the way drawing programs make them, clean failures on bad files, and
-the preview as viewers show it: tests/test_svg_preview.py."""
+the preview as viewers show it: tests/format/test_svg_preview.py."""
 
 from __future__ import annotations
 

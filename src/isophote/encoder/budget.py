@@ -2,7 +2,7 @@
 
 ``EncodeOptions.memory`` (``--memory``) is a byte count (``"2G"``, ``"512M"``, a number of
 bytes) that sizes the units of work; it never changes the output: the same input and
-options give the same bytes whatever the budget (tests/test_encode_budget.py).
+options give the same bytes whatever the budget (tests/encoder/test_encode_budget.py).
 
 What it sizes today (encoder/levelgroups.py, encoder/batches.py):
     level groups   marching squares runs over groups of a channel's levels (loops of one

@@ -2,7 +2,7 @@
 
 The specification is docs/format.md, and only there: it is written for readers who do not
 read Python (tables of every field, the coder's arithmetic, the reasons for each limit), and
-tests/test_format.py holds an independent writer built from its text to the same bytes, so
+tests/format/test_format.py holds an independent writer built from its text to the same bytes, so
 that is the text to keep right; this package cites it section by section instead of saying
 it again. tests/format/test_spec.py checks that the two agree where they can (the magic,
 the version, the limits named in its table).

@@ -119,7 +119,7 @@ What a drawing program may do, and what ``from_svg`` makes of it:
   shapes or text without ``iso:c`` (a drawing program's additions, the preview's rectangles and
   filter): ignored.
 
-Checked with Inkscape 1.2 (tests/test_svg.py, where it is installed): open and save keeps
+Checked with Inkscape 1.2 (tests/format/test_svg.py, where it is installed): open and save keeps
 the image exactly; rotate, flip and align (move) are honoured, caps included.
 
 Validation

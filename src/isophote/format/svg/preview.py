@@ -19,7 +19,7 @@ folded into its constant column. ``color-interpolation-filters="sRGB"`` keeps th
 the stored values (no linearRGB round trip). Intermediate layers hold 8 bits per component
 in browsers, so the painted values are rounded to integers: at most 0.5 off in Y, U and V,
 at most 1.4 in R, G, B after the matrix (resvg and Chromium show region interiors within 2
-levels of the flat render: tests/test_svg_preview.py). A grey image is its Y layer
+levels of the flat render: tests/format/test_svg_preview.py). A grey image is its Y layer
 painted grey, with no filter.
 """
 
