@@ -53,7 +53,7 @@ class BlockCache:
 
 
 class SampleEdges:
-    """A channel's edges in target-sample units (as fill.StripEdges). On a one-window level
+    """A channel's edges in target-sample units. On a one-window level
     all of them, indexed by buckets of SAMPLE_BUCKET sample rows; on a blocked level the
     segments of the block rows a strip reaches, flattened for that strip. The bands do not
     depend on which extra edges a strip is given (a winding sum of the edges that cross its

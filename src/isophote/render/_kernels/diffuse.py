@@ -56,6 +56,7 @@ import numpy as np
 from numba import njit
 
 from ...shared.unionfind import label_in_place, union
+from .regions import cap_values
 from .resample import bilinear_at
 
 MODE_EUCLIDEAN, MODE_MANHATTAN, MODE_GEODESIC = 0, 1, 2
@@ -247,22 +248,7 @@ def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
                 d = F[s, D, i, j]
                 if d != np.inf and d > dmax[k, s]:
                     dmax[k, s] = d
-    capv = np.full(m, np.nan)
-    for c in range(cap_x.shape[0]):
-        ci = int(np.floor(cap_y[c]))
-        cj = int(np.floor(cap_x[c]))
-        best = np.inf
-        bk = -1
-        for i in range(ci - 1, ci + 2):
-            for j in range(cj - 1, cj + 2):
-                if 0 <= i < nr and 0 <= j < nc and band[i, j] == cap_band[c]:
-                    dd = (j + 0.5 - cap_x[c]) ** 2 + (i + 0.5 - cap_y[c]) ** 2
-                    if dd < best:
-                        best = dd
-                        bk = labels[i, j]
-        if bk >= 0 and np.isnan(capv[bk]):
-            capv[bk] = cap_value[c]
-    return dmax, capv
+    return dmax, cap_values(band, labels, m, cap_x, cap_y, cap_band, cap_value)
 
 
 @njit(cache=True, nogil=True)

@@ -1,7 +1,7 @@
 """Kernels of the canvas-wide region pass (render/blocks.py): the cap value of every node
 region of a level, and the first node of each region of a window.
 
-cap_values repeats region_caps' rule for the cap values (diffuse.py): the annotation's
+cap_values is the rule region_caps (diffuse.py) uses for the cap values too: the annotation's
 nearest node of its band among the 3 x 3 around it names the region; the first annotation
 to name a region gives its value.
 """
