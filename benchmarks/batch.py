@@ -85,7 +85,7 @@ def run_config(name, frames_dir, outdir, deliver, preset):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--image", default="/work/wide/photo-4mp/Path.jpg")
+    ap.add_argument("--image", default="corpus-wide/photo-4mp/Path.jpg")
     ap.add_argument("--frames", type=int, default=48)
     ap.add_argument("--window", default="1280x720")
     ap.add_argument("--deliver", default="sd,hd,uhd,phone")

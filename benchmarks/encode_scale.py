@@ -7,7 +7,7 @@ the peer. The encode time is measured inside the child, without import and kerne
 (a 64x64 encode warms the kernels first); the baseline row is that warm-up alone.
 
     PYTHONPATH=src .venv/bin/python benchmarks/encode_scale.py \
-        --image /work/wide/mosaic-16mp.png --sizes 1,4,16 --preset balanced
+        --image corpus-wide/mosaic-16mp.png --sizes 1,4,16 --preset balanced
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def run_child(image, mp, preset, memory):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--image", default="/work/wide/mosaic-16mp.png")
+    ap.add_argument("--image", default="corpus-wide/mosaic-16mp.png")
     ap.add_argument("--sizes", default="1,4,16", help="megapixels of the centre crops (16 or more: the whole)")
     ap.add_argument("--preset", default="balanced")
     ap.add_argument("--memory", default="default")

@@ -66,7 +66,7 @@ def stages(plane, name, opts, memory, report):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--image", default="/work/wide/mosaic-16mp.png")
+    ap.add_argument("--image", default="corpus-wide/mosaic-16mp.png")
     ap.add_argument("--rows", type=int, default=1280)
     ap.add_argument("--cols", type=int, default=1600)
     ap.add_argument("--preset", default="balanced")

@@ -91,8 +91,8 @@ def run(case: dict, timeout: float) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--master", default="/work/wide/masters/mosaic-16mp.isoph")
-    ap.add_argument("--original", default="/work/wide/mosaic-16mp.png")
+    ap.add_argument("--master", default="corpus-wide/masters/mosaic-16mp.isoph")
+    ap.add_argument("--original", default="corpus-wide/mosaic-16mp.png")
     ap.add_argument("--tiles", type=int, default=500)
     ap.add_argument("--timeout", type=float, default=900)
     ap.add_argument("--skip", default="", help="comma-separated cases to skip (1x, tiles)")

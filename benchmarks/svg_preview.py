@@ -1,6 +1,6 @@
 """The SVG preview against isophote's own flat-fill render, in resvg and in Chromium.
 
-    python benchmarks/svg_preview.py [--dir /work/wide/photo] [--masters DIR] [--no-chromium]
+    python benchmarks/svg_preview.py [--dir corpus-wide/photo] [--masters DIR] [--no-chromium]
                                      [--shots DIR] [--out benchmarks/results/svg_preview.md]
 
 For every photograph in --dir (*.png, *.jpg): encode with the default options (or load
@@ -153,7 +153,7 @@ def table(rows, chromium: bool) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--dir", default="/work/wide/photo")
+    ap.add_argument("--dir", default="corpus-wide/photo")
     ap.add_argument("--masters", help="folder of NAME.isoph masters to load (and to save encoded ones to)")
     ap.add_argument("--no-chromium", action="store_true")
     ap.add_argument("--smooth-chromium", action="store_true", help="also show the anti-aliased SVG in Chromium")

@@ -8,7 +8,7 @@ Pillow thumbnail of that raster. Each timing is the best of --rounds, after one 
 (numba's compile is not counted). Masters are encoded once (balanced preset) and kept in
 out/thumbnail/.
 
-    PYTHONPATH=src python benchmarks/thumbnail.py [--images astronaut,/work/wide/photo/Kite.png]
+    PYTHONPATH=src python benchmarks/thumbnail.py [--images astronaut,corpus-wide/photo/Kite.png]
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import corpus  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CACHE = os.path.join(ROOT, "out", "thumbnail")
-WIDE = "/work/wide/photo/Kite.png"
+WIDE = "corpus-wide/photo/Kite.png"
 
 
 def master_for(name: str) -> tuple[str, str]:
