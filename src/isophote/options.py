@@ -53,13 +53,17 @@ PAPER_RANGE = (7.5, 247.5)  # the paper's levels, 127.5 +- 10k (encoder/levels.p
 FULL_RANGE = (0.5, 254.5)  # the whole 8-bit scale: every two neighbouring values can be separated
 PRESETS = {
     "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=PAPER_RANGE, local_noise=0.0,
-                  prune_area_y=0.0, prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5),
+                  prune_area_y=0.0, prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5,
+                  smooth_grain=0.0),
     "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=PAPER_RANGE, local_noise=3.0,
-                    prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0),
+                    prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0,
+                    smooth_grain=0.0),
     "balanced": dict(y_step=6.0, uv_step=5.0, alpha_step=6.0, level_range=FULL_RANGE, local_noise=3.0,
-                     prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0),
+                     prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
+                     smooth_grain=0.0),
     "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=FULL_RANGE, local_noise=3.0,
-                 prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0),
+                 prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
+                     smooth_grain=0.0),
 }
 DEFAULT_PRESET = "balanced"  # why: see above
 LEVEL_CENTRE = 127.5  # stepped levels sit at LEVEL_CENTRE + k * step (encoder/levels.py)
@@ -97,6 +101,9 @@ class EncodeOptions:
         pixels (prune_area_y for Y and alpha, prune_area_uv for U and V) whose extreme lies
         less than prune_contrast x epsilon beyond the level are flattened before tracing
         (encoder/prune.py); 0 = none. None = the preset's.
+    smooth_grain : t, samples of smooth regions with fine grain move towards their blur by
+        up to t x the local noise deviation before tracing (encoder/noise.py, "Grain
+        smoothing"); 0 = none. None = the preset's.
     snap : G1 snapping threshold in degrees (§1): joints whose tangents are within this
         angle of opposite are made collinear when the chain stays inside its ribbon.
     min_tolerance, max_tolerance : clamp of the ribbon half-width in source pixels
@@ -123,6 +130,7 @@ class EncodeOptions:
     prune_area_y: float | None = None
     prune_area_uv: float | None = None
     prune_contrast: float | None = None
+    smooth_grain: float | None = None
     snap: float = 20.0
     min_tolerance: float = 0.05
     max_tolerance: float | None = None
@@ -185,6 +193,8 @@ class EncodeOptions:
             v = getattr(self, name)
             if v is not None and not (0 <= v <= 1_000_000):
                 raise OptionError(f"{name.replace('_', '-')} must be between 0 and 1000000 pixels, got {v}")
+        if self.smooth_grain is not None and not (0 <= self.smooth_grain <= 16):
+            raise OptionError(f"smooth-grain must be between 0 and 16, got {self.smooth_grain}")
         if self.prune_contrast is not None and not (0 <= self.prune_contrast <= 64):
             raise OptionError(f"prune-contrast must be between 0 and 64, got {self.prune_contrast}")
         if not (0 <= self.snap < 90):
