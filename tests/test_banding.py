@@ -97,3 +97,40 @@ def test_texture_and_clean_edges_keep_their_samples():
     edge = np.where(np.arange(96)[None, :] < 48, 50.0, 200.0) * np.ones((96, 1))
     assert np.array_equal(smooth_grain(edge, 2.0), edge)  # no grain: nothing moves
     assert np.array_equal(smooth_grain(texture, 0.0), texture)
+
+
+# ------------------------------------------------------------------------ finer steps on smooth photographs
+
+
+def test_smooth_photographs_get_the_finer_step_and_textured_ones_keep_theirs():
+    from isophote.encoder.noise import adapt_steps
+    from isophote.options import EncodeOptions
+
+    opts = EncodeOptions(preset="balanced").resolved()
+    assert (opts.y_step, opts.uv_step, opts.smooth_step) == (6.0, 5.0, 4.0)
+    smooth = adapt_steps(opts, _sky(noise=0.5)[..., 0])
+    assert (smooth.y_step, smooth.uv_step) == (4.0, 4.0)
+    texture = 128.0 + np.random.default_rng(4).normal(0.0, 6.0, (96, 96))
+    assert adapt_steps(opts, texture) is opts
+    # explicit steps are kept as given; the paper preset has no finer step
+    assert EncodeOptions(preset="balanced", y_step=8.0).resolved().smooth_step == 0.0
+    assert adapt_steps(EncodeOptions(preset="balanced", y_step=8.0).resolved(), _sky()[..., 0]).y_step == 8.0
+    assert adapt_steps(EncodeOptions(preset="paper").resolved(), _sky()[..., 0]).y_step == 10.0
+
+
+def test_a_smooth_photograph_is_encoded_on_the_finer_levels():
+    import isophote
+
+    img = _u8(_sky(64, 80, noise=0.5))
+    vi = isophote.encode(img)
+    assert np.allclose(np.diff(vi.channel("Y").levels), 4.0)
+    assert np.allclose(np.diff(isophote.encode(img, preset="paper").channel("Y").levels), 10.0)
+
+
+def test_smooth_options_are_checked():
+    from isophote.errors import OptionError
+    from isophote.options import EncodeOptions
+
+    for bad in (dict(smooth_step=0.2), dict(smooth_grain=-1.0), dict(smooth_grain=17.0)):
+        with pytest.raises(OptionError):
+            EncodeOptions(**bad).resolved()

@@ -54,16 +54,16 @@ FULL_RANGE = (0.5, 254.5)  # the whole 8-bit scale: every two neighbouring value
 PRESETS = {
     "paper": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=PAPER_RANGE, local_noise=0.0,
                   prune_area_y=0.0, prune_area_uv=0.0, prune_contrast=0.0, max_tolerance=0.5,
-                  smooth_grain=0.0),
+                  smooth_grain=0.0, smooth_step=0.0),
     "compact": dict(y_step=10.0, uv_step=5.0, alpha_step=10.0, level_range=PAPER_RANGE, local_noise=3.0,
                     prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=2.0, max_tolerance=1.0,
-                    smooth_grain=0.0),
+                    smooth_grain=0.0, smooth_step=0.0),
     "balanced": dict(y_step=6.0, uv_step=5.0, alpha_step=6.0, level_range=FULL_RANGE, local_noise=3.0,
                      prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
-                     smooth_grain=0.0),
+                     smooth_grain=2.0, smooth_step=4.0),
     "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=FULL_RANGE, local_noise=3.0,
                  prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
-                     smooth_grain=0.0),
+                 smooth_grain=2.0, smooth_step=0.0),
 }
 DEFAULT_PRESET = "balanced"  # why: see above
 LEVEL_CENTRE = 127.5  # stepped levels sit at LEVEL_CENTRE + k * step (encoder/levels.py)
@@ -104,6 +104,9 @@ class EncodeOptions:
     smooth_grain : t, samples of smooth regions with fine grain move towards their blur by
         up to t x the local noise deviation before tracing (encoder/noise.py, "Grain
         smoothing"); 0 = none. None = the preset's.
+    smooth_step : Y and U, V level step on photographs that are smooth almost everywhere
+        (encoder/noise.py adapt_steps); 0 = the steps everywhere. None = the preset's, or 0
+        when steps or levels are given explicitly.
     snap : G1 snapping threshold in degrees (§1): joints whose tangents are within this
         angle of opposite are made collinear when the chain stays inside its ribbon.
     min_tolerance, max_tolerance : clamp of the ribbon half-width in source pixels
@@ -131,6 +134,7 @@ class EncodeOptions:
     prune_area_uv: float | None = None
     prune_contrast: float | None = None
     smooth_grain: float | None = None
+    smooth_step: float | None = None
     snap: float = 20.0
     min_tolerance: float = 0.05
     max_tolerance: float | None = None
@@ -144,6 +148,9 @@ class EncodeOptions:
             raise OptionError(f"unknown preset {self.preset!r} (choose from {', '.join(PRESETS)})")
         base = PRESETS[self.preset]
         out = replace(self, **{k: v for k, v in base.items() if getattr(self, k) is None})
+        explicit = ("y_step", "uv_step", "levels_y", "levels_u", "levels_v")
+        if self.smooth_step is None and any(getattr(self, k) is not None for k in explicit):
+            out = replace(out, smooth_step=0.0)  # explicit steps or levels are kept as given
         if isinstance(self.noise, (int, float)) and self.local_noise is None:
             out = replace(out, local_noise=0.0)  # a number is the sample error, as in the paper
         if isinstance(self.noise, str):
@@ -193,6 +200,8 @@ class EncodeOptions:
             v = getattr(self, name)
             if v is not None and not (0 <= v <= 1_000_000):
                 raise OptionError(f"{name.replace('_', '-')} must be between 0 and 1000000 pixels, got {v}")
+        if self.smooth_step is not None and not (self.smooth_step == 0 or 0.5 <= self.smooth_step <= 128):
+            raise OptionError(f"smooth-step must be 0 or between 0.5 and 128, got {self.smooth_step}")
         if self.smooth_grain is not None and not (0 <= self.smooth_grain <= 16):
             raise OptionError(f"smooth-grain must be between 0 and 16, got {self.smooth_grain}")
         if self.prune_contrast is not None and not (0 <= self.prune_contrast <= 64):

@@ -26,7 +26,7 @@ from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
-from .noise import prepare_plane
+from .noise import adapt_steps, prepare_plane
 
 # Handles go onto grids of up to 2**HANDLE_SHIFT / QUANT px (in the chord's frame) where the
 # segment stays in its ribbon (_kernels/fit.py, step 4), and the file codes them divided by
@@ -99,6 +99,7 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
     if c in (2, 4):
         planes.append(("A", pixels[..., -1]))
     eps = opts.noise if opts.noise is not None else (0.5 if depth == 8 else 0.5 / 257.0)
+    opts = adapt_steps(opts, planes[0][1])  # finer levels on smooth photographs (noise.py)
     with ThreadPoolExecutor(max_workers=channel_workers(h * w)) as pool:
         channels = list(pool.map(lambda p: encode_channel(p[0], p[1], eps, opts), planes))
     return VectorImage(width=w, height=h, colour=colour, channels=tuple(channels), source_depth=depth)
