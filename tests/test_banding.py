@@ -111,7 +111,7 @@ def test_smooth_photographs_get_the_finer_step_and_textured_ones_keep_theirs():
     smooth = adapt_steps(opts, _sky(noise=0.5)[..., 0])
     assert (smooth.y_step, smooth.uv_step) == (4.0, 4.0)
     texture = 128.0 + np.random.default_rng(4).normal(0.0, 6.0, (96, 96))
-    assert adapt_steps(opts, texture) is opts
+    assert (adapt_steps(opts, texture).y_step, adapt_steps(opts, texture).uv_step) == (6.0, 5.0)
     # explicit steps are kept as given; the paper preset has no finer step
     assert EncodeOptions(preset="balanced", y_step=8.0).resolved().smooth_step == 0.0
     assert adapt_steps(EncodeOptions(preset="balanced", y_step=8.0).resolved(), _sky()[..., 0]).y_step == 8.0
@@ -134,3 +134,14 @@ def test_smooth_options_are_checked():
     for bad in (dict(smooth_step=0.2), dict(smooth_grain=-1.0), dict(smooth_grain=17.0)):
         with pytest.raises(OptionError):
             EncodeOptions(**bad).resolved()
+
+
+def test_grain_smoothing_is_kept_for_smooth_photographs_only():
+    from isophote.encoder.noise import adapt_steps
+    from isophote.options import EncodeOptions
+
+    opts = EncodeOptions(preset="balanced").resolved()
+    assert opts.smooth_grain == 2.0
+    assert adapt_steps(opts, _sky(noise=0.5)[..., 0]).smooth_grain == 2.0
+    texture = 128.0 + np.random.default_rng(4).normal(0.0, 6.0, (96, 96))
+    assert adapt_steps(opts, texture).smooth_grain == 0.0

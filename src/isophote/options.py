@@ -63,7 +63,7 @@ PRESETS = {
                      smooth_grain=2.0, smooth_step=4.0),
     "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=FULL_RANGE, local_noise=3.0,
                  prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
-                 smooth_grain=2.0, smooth_step=0.0),
+                 smooth_grain=0.0, smooth_step=0.0),
 }
 DEFAULT_PRESET = "balanced"  # why: see above
 LEVEL_CENTRE = 127.5  # stepped levels sit at LEVEL_CENTRE + k * step (encoder/levels.py)
@@ -101,9 +101,10 @@ class EncodeOptions:
         pixels (prune_area_y for Y and alpha, prune_area_uv for U and V) whose extreme lies
         less than prune_contrast x epsilon beyond the level are flattened before tracing
         (encoder/prune.py); 0 = none. None = the preset's.
-    smooth_grain : t, samples of smooth regions with fine grain move towards their blur by
-        up to t x the local noise deviation before tracing (encoder/noise.py, "Grain
-        smoothing"); 0 = none. None = the preset's.
+    smooth_grain : t, on photographs that are smooth almost everywhere (encoder/noise.py
+        adapt_steps), samples with fine grain move towards their blur by up to t x the
+        local noise deviation before tracing (encoder/noise.py, "Grain smoothing"); 0 = none.
+        None = the preset's.
     smooth_step : Y and U, V level step on photographs that are smooth almost everywhere
         (encoder/noise.py adapt_steps); 0 = the steps everywhere. None = the preset's, or 0
         when steps or levels are given explicitly.

@@ -48,7 +48,8 @@ Finer levels on smooth photographs (``smooth_step`` > 0, issue 26)
     what limits it (the fill between levels 6 apart shows in a dark sky: DarkestHour balanced,
     SSIMULACRA2 69.1), while on textured photographs finer levels cost bytes in proportion to
     the texture. :func:`adapt_steps` gives Y and U, V the step ``smooth_step`` when at least
-    SMOOTH_SHARE of the luma's pixels have a local noise deviation under GRAIN_FULL.
+    SMOOTH_SHARE of the luma's pixels have a local noise deviation under GRAIN_FULL, and
+    keeps grain smoothing for such photographs only.
 
 With ``local_noise == 0``, no pruning and no grain smoothing (the "paper" preset)
 :func:`prepare_plane` returns its inputs untouched: the paper's global eps.
@@ -149,15 +150,20 @@ def smooth_grain(plane: np.ndarray, t: float, sigma: np.ndarray | None = None) -
 
 
 def adapt_steps(opts, luma: np.ndarray):
-    """``opts`` with y_step and uv_step set to ``opts.smooth_step`` when the photograph is
-    smooth (module docstring), else unchanged. Never finer than the steps it replaces."""
-    fine = float(getattr(opts, "smooth_step", 0.0) or 0.0)
-    if fine <= 0 or luma.size == 0:
-        return opts
-    if float(np.mean(local_noise(luma) < GRAIN_FULL)) < SMOOTH_SHARE:
-        return opts
+    """``opts`` as the photograph asks: when it is smooth (module docstring), y_step and
+    uv_step set to ``opts.smooth_step`` (never coarser than they were); when it is not, grain
+    smoothing off (it takes texture that reads as noise with it: BytheWater, balanced,
+    SSIMULACRA2 81.4 without it, 79.2 with it)."""
     from dataclasses import replace
 
+    fine = float(getattr(opts, "smooth_step", 0.0) or 0.0)
+    grain = float(getattr(opts, "smooth_grain", 0.0) or 0.0)
+    if (fine <= 0 and grain <= 0) or luma.size == 0:
+        return opts
+    if float(np.mean(local_noise(luma) < GRAIN_FULL)) < SMOOTH_SHARE:
+        return replace(opts, smooth_grain=0.0) if grain > 0 else opts
+    if fine <= 0:
+        return opts
     return replace(opts, y_step=min(fine, opts.y_step), uv_step=min(fine, opts.uv_step))
 
 
