@@ -145,3 +145,12 @@ def test_grain_smoothing_is_kept_for_smooth_photographs_only():
     assert adapt_steps(opts, _sky(noise=0.5)[..., 0]).smooth_grain == 2.0
     texture = 128.0 + np.random.default_rng(4).normal(0.0, 6.0, (96, 96))
     assert adapt_steps(opts, texture).smooth_grain == 0.0
+
+
+def test_clean_but_busy_photographs_are_not_smooth():
+    from isophote.encoder.noise import is_smooth
+
+    assert is_smooth(_sky(noise=0.5)[..., 0])
+    # noise-free stripes 8 px wide: every pixel reads as noiseless, the gradient is large
+    stripes = np.where((np.arange(128) // 8) % 2 == 0, 60.0, 180.0)[None, :] * np.ones((96, 1))
+    assert not is_smooth(stripes)
