@@ -108,6 +108,8 @@ def test_smooth_photographs_get_the_finer_step_and_textured_ones_keep_theirs():
 
     opts = EncodeOptions(preset="balanced").resolved()
     assert (opts.y_step, opts.uv_step, opts.smooth_step) == (6.0, 5.0, 4.0)
+    high = EncodeOptions(preset="high").resolved()
+    assert (adapt_steps(high, _sky(noise=0.5)[..., 0]).y_step, high.smooth_grain) == (2.0, 2.0)
     smooth = adapt_steps(opts, _sky(noise=0.5)[..., 0])
     assert (smooth.y_step, smooth.uv_step) == (4.0, 4.0)
     texture = 128.0 + np.random.default_rng(4).normal(0.0, 6.0, (96, 96))
