@@ -156,3 +156,15 @@ def test_clean_but_busy_photographs_are_not_smooth():
     # noise-free stripes 8 px wide: every pixel reads as noiseless, the gradient is large
     stripes = np.where((np.arange(128) // 8) % 2 == 0, 60.0, 180.0)[None, :] * np.ones((96, 1))
     assert not is_smooth(stripes)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (5, 2), (2, 2)])
+def test_tiny_planes_are_never_smooth_and_keep_their_samples(shape):
+    from isophote.encoder.noise import is_smooth
+
+    plane = np.arange(np.prod(shape), dtype=np.float64).reshape(shape)
+    assert not is_smooth(plane)
+    out = smooth_grain(plane, 2.0)
+    assert out.shape == shape and (min(shape) < 2 or np.all(np.isfinite(out)))
+    if min(shape) < 2:
+        assert np.array_equal(out, plane)

@@ -139,7 +139,7 @@ def smooth_grain(plane: np.ndarray, t: float, sigma: np.ndarray | None = None) -
     from scipy import ndimage
 
     f = np.asarray(plane, np.float64)
-    if t <= 0 or f.size == 0:
+    if t <= 0 or min(f.shape) < 2:
         return f.copy()
     s = local_noise(f) if sigma is None else np.asarray(sigma, np.float64)
     g = ndimage.gaussian_filter(f, GRAIN_SIGMA, mode="nearest")
@@ -162,6 +162,8 @@ def is_smooth(luma: np.ndarray) -> bool:
     from scipy import ndimage
 
     luma = np.asarray(luma, np.float64)
+    if min(luma.shape) < 3:  # too small to have a gradient, or a region to smooth
+        return False
     if float(np.mean(local_noise(luma) < GRAIN_FULL)) < SMOOTH_SHARE:
         return False
     return float(np.hypot(*np.gradient(ndimage.gaussian_filter(luma, 1.0))).mean()) < SMOOTH_GRADIENT
