@@ -36,6 +36,7 @@ from peers import downscale, upscale_peers  # noqa: E402
 
 import isophote  # noqa: E402
 from isophote import metrics  # noqa: E402
+from isophote.banding import smooth_artefacts  # noqa: E402
 
 SECTIONS = ("1x", "reduce", "enlarge", "equalise", "smooth")
 
@@ -63,39 +64,6 @@ def lanczos(img: np.ndarray, size) -> np.ndarray:
 def luma(img: np.ndarray) -> np.ndarray:
     a = img.astype(np.float64)
     return a if a.ndim == 2 else a @ np.array([0.299, 0.587, 0.114])
-
-
-def smooth_artefacts(ref: np.ndarray, test: np.ndarray) -> dict:
-    """Terraces and chroma blotches in the smooth regions of ``ref``, after a 2x contrast
-    curve about mid-grey (c(x) = clip(2 x - 127.5)): the error that survives a Gaussian blur
-    (sigma 2 px: noise and single-pixel texture are gone, steps and blotches are not), RMS over
-    the smooth mask, in grey levels of the stretched image, for luma (Y, BT.601) and chroma
-    (the RMS of U and V together). The mask: pixels where the blurred original's gradient is
-    under 1.5 grey levels a pixel and its local deviation (sigma 2) under 3, eroded by 3 px:
-    skies, out-of-focus backgrounds, walls. Returns the two errors and the mask's share."""
-    from scipy import ndimage
-
-    from isophote.colour import rgb_to_yuv
-
-    def yuv(a):
-        a = a.astype(np.float64)
-        return rgb_to_yuv(np.repeat(a[..., None], 3, axis=2) if a.ndim == 2 else a[..., :3])
-
-    R, T = yuv(ref), yuv(test)
-    y = R[..., 0]
-    b = ndimage.gaussian_filter(y, 2.0)
-    grad = np.hypot(*np.gradient(b))
-    dev = np.sqrt(np.maximum(ndimage.gaussian_filter(y * y, 2.0) - b * b, 0.0))
-    mask = ndimage.binary_erosion((grad < 1.5) & (dev < 3.0), iterations=3)
-    if mask.mean() < 0.01:
-        return {"y": float("nan"), "uv": float("nan"), "share": float(mask.mean())}
-
-    def stretch(a):
-        return np.clip(2.0 * a - 127.5, 0.0, 255.0)
-
-    err = [ndimage.gaussian_filter(stretch(T[..., c]) - stretch(R[..., c]), 2.0)[mask] for c in range(3)]
-    return {"y": float(np.sqrt(np.mean(err[0] ** 2))),
-            "uv": float(np.sqrt(np.mean(err[1] ** 2 + err[2] ** 2) / 2)), "share": float(mask.mean())}
 
 
 def bench_photo(name, img, preset, only, report_rows):
@@ -137,9 +105,13 @@ def bench_photo(name, img, preset, only, report_rows):
             row[f"x{f}"] = {"iso": scores(ref, big), "bicubic": scores(ref, peers["bicubic"]),
                             "lanczos": scores(ref, peers["lanczos"])}
     if "equalise" in only:
-        eq = isophote.equalise(vi)
+        info = {}
+        eq = isophote.equalise(vi, info=info)
         y = eq.render()
         stats = histogram_stats(np.clip(np.rint(luma(y)), 0, 255).astype(np.int64))
+        q = np.clip(np.rint(luma(img)), 0, 255).astype(np.int64)
+        stats["atom"] = float(np.bincount(q.ravel(), minlength=256).max() / q.size)
+        stats["y_empty"], stats["y_ks"] = info["measured"]["empty"], info["measured"]["ks"]
         row["equalise"] = stats
     report_rows.append(row)
     print(name, {k: v for k, v in row.items() if k != "name"}, file=sys.stderr, flush=True)
@@ -195,10 +167,18 @@ def tables(rows, only, preset) -> list:
                   [(f"{who} {m}", (f"x{f}.{who}.{key}", d)) for who in ("iso", "bicubic", "lanczos")
                    for m, key, d in (("PSNR", "psnr", 2), ("S2", "ssimulacra2", 1), ("FLIP", "flip", 4))], path)
     if "equalise" in only:
-        table("Equalisation at 1x", [("empty bins", ("equalise.empty", 0)), ("KS", ("equalise.ks", 4))], path)
+        table("Equalisation at 1x (Y: the equalised channel rendered alone; RGB luma: BT.601 luma of the "
+              "RGB render, after the renderer's gamut clipping; atom: the original's largest single-value share)",
+              [("Y empty bins", ("equalise.y_empty", 0)), ("Y KS", ("equalise.y_ks", 4)),
+               ("RGB luma empty", ("equalise.empty", 0)), ("RGB luma KS", ("equalise.ks", 4)),
+               ("atom", ("equalise.atom", 4))], path)
     if "smooth" in only:
-        table("Smooth regions after a 2x contrast curve (blurred error, grey levels; lower is better)",
-              [("Y", ("smooth.y", 2)), ("UV", ("smooth.uv", 2)), ("mask share", ("smooth.share", 3))], path)
+        table("Smooth regions after a 2x contrast curve (isophote/banding.py; grey levels of the stretched "
+              "image: E the blurred error, A the band-pass error (terraces, blotches), own the original's "
+              "grain in the same band; ok = A <= max(own, 0.074) in Y and UV)",
+              [("E Y", ("smooth.y", 2)), ("E UV", ("smooth.uv", 2)), ("A Y", ("smooth.y_a", 2)),
+               ("A UV", ("smooth.uv_a", 2)), ("own Y", ("smooth.y_own", 2)), ("own UV", ("smooth.uv_own", 3)),
+               ("ok", ("smooth.ok", 0)), ("mask share", ("smooth.share", 3))], path)
     return rep
 
 

@@ -30,7 +30,7 @@ from .budget import fit_batch_points, group_segments, overlap_fit_and_hierarchy,
 from .levelgroups import plane_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
-from .noise import prepare_plane
+from .noise import adapt_steps, prepare_plane
 
 # Handles go onto grids of up to 2**HANDLE_SHIFT / QUANT px (in the chord's frame) where the
 # segment stays in its ribbon (_kernels/fit.py, step 4), and the file codes them divided by
@@ -114,6 +114,7 @@ def _encode_held(held: list, depth: int, opts: EncodeOptions) -> VectorImage:
         planes.append(("A", pixels[..., -1].copy() if c == 4 else pixels[..., -1]))
     del pixels
     eps = opts.noise if opts.noise is not None else (0.5 if depth == 8 else 0.5 / 257.0)
+    opts = adapt_steps(opts, planes[0][1])  # finer levels on smooth photographs (noise.py)
     memory = parse_memory(opts.memory)  # refused before any work
     with ThreadPoolExecutor(max_workers=channel_workers(h * w, memory)) as pool:
         channels = list(pool.map(lambda p: encode_channel(p[0], p[1], eps, opts), planes))
