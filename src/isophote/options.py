@@ -12,58 +12,28 @@ from dataclasses import dataclass, fields, replace
 from .errors import OptionError
 from .limits import MAX_PIXELS
 
-# Presets: the values of the fields left at None. Measured on the five corpus photographs
-# (benchmarks/run.py, results/report.md "isophote presets"; means at 1x, .isoph format v4,
-# handles on coarse grids and joints on the sample grid where the ribbon allows, the ribbon
-# whole: the fitter checks the file's 1/64 px grid itself):
+# Presets: the values of the fields left at None. What each is for (the measurements behind
+# every choice: benchmarks/results/design_choices.md#presets):
 #   paper    §1 of the paper: Y every 10 around 127.5 (25 levels), U and V every 5 (49), one
 #            global sample error (the quantisation error), no pruning, ribbon <= 0.5 px.
-#            1.91 x PNG, PSNR 40.75 dB, SSIMULACRA2 72.9, FLIP 0.039; 124k segments.
 #   compact  the paper's levels, with a per-pixel eps of 3 x the local noise deviation
 #            (encoder/noise.py; capped at 0.4 level spacings), a ribbon of up to 1 px, and the
-#            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py).
-#            0.92 x PNG, 38.2 dB, SSIMULACRA2 70.3 ("high quality"), FLIP 0.048; 50k segments.
+#            U, V loops of under 16 px within 2 eps of their level pruned (encoder/prune.py):
+#            the fewest bytes, "high quality" by SSIMULACRA2.
 #   high     levels every 3 in Y, U and V over the whole scale (1.5 .. 253.5: dark and bright
 #            texture is traced too, encoder/levels.py); the same noise model, chroma pruning
-#            within 0.5 eps. 3.87 x PNG, 45.4 dB, SSIMULACRA2 90.2, FLIP 0.022; 233k segments.
-#            On smooth photographs (as balanced, below) levels every 2 with grain smoothing.
-#            The wide corpus (11 photographs at 1280 x 800, issue 26): mean SSIMULACRA2 89.5
-#            (88.4 without the smooth-photograph rule), 86.6 on DarkestHour at the lowest,
-#            2.46 x PNG (2.35): "about 90", the threshold of "indistinguishable", not beyond
-#            it on every photograph.
-#            (The paper's range and pruning within 1 eps, format v3: 5.48 x PNG, 45.0 dB, 89.2.)
+#            within 0.5 eps; on smooth photographs (as balanced, below) levels every 2 with
+#            grain smoothing. For masters near "indistinguishable" (SSIMULACRA2 about 90).
 #   balanced high's noise model, range and pruning with Y every 6 and U, V every 5: fewer
-#            bytes than paper and more faithful on PSNR and SSIMULACRA2: 1.66 x PNG, 41.2 dB,
-#            SSIMULACRA2 82.0, FLIP 0.035; 93k segments; 1.2-1.5 x paper's encode time.
-#            Steps measured with high's other settings (format v3 x PNG / dB / SSIMULACRA2): Y 5 U/V 5
-#            3.01 / 42.1 / 84.2; Y 6 U/V 6 2.42 / 41.0 / 81.4; Y 6.5 U/V 6 2.26 / 40.5 / 79.7;
-#            Y 7 U/V 6 2.09 / 40.4 / 79.3; Y 8 U/V 6 1.84 / 39.8 / 76.9.
-#            On photographs smooth almost everywhere (>= 85 % of the luma's pixels with a
-#            local noise deviation under 1 grey level: skies, mist, out-of-focus scenes; none
-#            of the five corpus photographs) it takes Y and U, V every 4 and smooths their
-#            grain first (smooth_step, smooth_grain; encoder/noise.py adapt_steps): the wide
-#            corpus's 1280 x 800 photographs (issue 26, benchmarks/results/quality_wide_balanced.md)
-#            DarkestHour SSIMULACRA2 69.1 -> 79.5, Kite 67.8 -> 77.1, summer_1am 75.6 -> 83.5, FallenLeaf
-#            80.7 -> 87.0; the 11 photographs' mean 78.5 -> 81.6 for 3 % more bytes (1.03 -> 1.07 x PNG);
-#            grain smoothing alone (levels every 6) halves DarkestHour's bytes (246 -> 128 kB) for
-#            2.5 points more. Textured photographs are encoded as before (grain smoothing
-#            there takes texture: BytheWater 81.4 -> 79.2).
-# What the measurements said: the noise-aware ribbon halves the segments for 0.3-1 point of
-# SSIMULACRA2; pruning pays in chroma (astronaut: -32 % segments for -2.4 points) but not in
-# luma (-9 % segments for -7 points: the small Y loops are texture, which SSIMULACRA2 sees),
-# so no preset prunes Y. SSIMULACRA2 stayed near 89 on astronaut even with levels every 2
-# because its black background lies below the paper's lowest level (7.5): the full level range
-# lifts it to 90.5. Rocket stays near 85 whatever the levels and noise.
-#
-# The default is "balanced": on the corpus mean it is smaller than "paper" and better on every
-# measure (benchmarks/results/report.md: 1.66 against 1.91 x PNG, 41.23 against 40.75 dB,
-# SSIMULACRA2 82.0 against 72.9, FLIP 0.035 against 0.039), and it renders faster at 1x,
-# for 1.2-1.5 x paper's encode time. isophote's first use is a master that every delivery
-# size is rendered from, where fidelity per byte comes first. Camera, its worst case, gets a
-# balanced file 2 % larger than its paper one (3.32 and 3.25 x PNG) and 2.3 dB more faithful.
-# "compact" spends 45 % fewer bytes for 3.0 dB and 11.7 points of SSIMULACRA2 less; "high"
-# is for masters that should be near-indistinguishable (SSIMULACRA2 about 90); "paper" keeps the paper's regime (§1), on which
-# the speed targets and the applications' benchmarks are stated.
+#            bytes than paper and more faithful on every measure. On photographs smooth almost
+#            everywhere (>= 85 % of the luma's pixels with a local noise deviation under 1 grey
+#            level: skies, mist, out-of-focus scenes) it takes Y and U, V every 4 and smooths
+#            their grain first (smooth_step, smooth_grain; encoder/noise.py adapt_steps), where
+#            coarser levels terrace; textured photographs are encoded as before.
+# No preset prunes Y (its small loops are texture, which SSIMULACRA2 sees). The default is
+# "balanced": isophote's first use is a master that every delivery size is rendered from,
+# where fidelity per byte comes first; "paper" keeps the paper's regime (§1), on which the
+# speed targets and the applications' benchmarks are stated.
 PAPER_RANGE = (7.5, 247.5)  # the paper's levels, 127.5 +- 10k (encoder/levels.py)
 FULL_RANGE = (0.5, 254.5)  # the whole 8-bit scale: every two neighbouring values can be separated
 PRESETS = {
