@@ -26,7 +26,7 @@ def _noise(text: str):
 ENCODE_FLAGS = {
     "preset": dict(choices=tuple(PRESETS),
                    help="how faithful and how large the file is: balanced (a master, fewer bytes than paper "
-                        "and more faithful), high (indistinguishable from the original, largest), compact "
+                        "and more faithful), high (near-indistinguishable: SSIMULACRA2 about 90; largest), compact "
                         "(smallest file at high quality), paper (the paper's fixed levels and one error)"),
     "y_step": dict(type=float, metavar="N",
                    help="brightness detail: grey levels between two brightness contours; smaller is more "
