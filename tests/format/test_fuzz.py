@@ -200,10 +200,9 @@ NO_LEVELS = VectorImage(3, 2, "yuv", (Channel.empty("Y", []), Channel.empty("U",
 
 def test_render_of_a_channel_without_levels_stays_in_bounds(monkeypatch):
     import isophote.render.blocks as blocks
-    import isophote.render.distance as distance
 
     compiled = [NO_LEVELS.render(fill=f) for f in ("diffusion", "flat")]
-    for module in (distance, blocks):
+    for module in (blocks,):
         if hasattr(getattr(module, "evaluate", None), "py_func"):
             monkeypatch.setattr(module, "evaluate", module.evaluate.py_func)
     python = [NO_LEVELS.render(fill=f) for f in ("diffusion", "flat")]
