@@ -332,3 +332,31 @@ def test_a_jpeg_input_passes_its_quantisation_error(tmp_path, capsys, monkeypatc
     write_image(png, _gradient())
     assert _run(capsys, "encode", png, "-o", tmp_path / "c.isoph", "--quiet")[0] == 0
     assert seen[-1].noise_floor is None
+
+
+@pytest.mark.parametrize("step", [0, 2, 3])
+def test_smooth_step_flag_sets_the_levels_of_a_smooth_photograph(tmp_path, capsys, step):
+    """A clean ramp from 60 to 190 is smooth by encoder/noise.py's rule: --smooth-step N
+    traces every level of the ramp's range, and those levels lie N grey levels apart (0: the
+    preset's own y_step, coarser than 3); --smooth-grain is accepted beside it."""
+    from isophote.format.isoph import load
+
+    png, out = tmp_path / "ramp.png", tmp_path / "ramp.isoph"
+    ramp = np.tile(np.linspace(60.0, 190.0, 160), (96, 1))
+    write_image(png, np.rint(ramp).astype(np.uint8))
+    rc, _, err = _run(capsys, "encode", png, "-o", out, "--quiet", "--preset", "balanced",
+                      "--smooth-step", step, "--smooth-grain", "1")
+    assert rc == 0, err
+    y = load(out).channels[0]
+    traced = np.unique(np.asarray(y.levels)[y.contour_level])
+    expect = np.asarray(y.levels)[(np.asarray(y.levels) > 60) & (np.asarray(y.levels) < 190)]
+    assert np.array_equal(traced, expect)
+    spacing = np.diff(traced)
+    assert np.allclose(spacing, step if step else spacing[0]) and (step or spacing[0] > 3)
+
+
+@pytest.mark.parametrize("flags", [["--smooth-step", "0.2"], ["--smooth-grain", "-1"], ["--smooth-grain", "17"]])
+def test_bad_smooth_flags(files, tmp_path, capsys, flags):
+    png, _ = files
+    out = tmp_path / "o.isoph"
+    _refused(capsys, tmp_path, "encode", png, "-o", out, *flags, output=out)

@@ -77,6 +77,13 @@ ENCODE_FLAGS = {
     "memory": dict(metavar="SIZE",
                    help="working memory to aim at, such as 2G or 512M: larger works in bigger pieces "
                         "(a little faster), smaller needs less; the file is the same bytes either way"),
+    "smooth_step": dict(type=float, metavar="N",
+                        help="brightness and colour detail on photographs smooth almost everywhere (skies, "
+                             "mist, out-of-focus scenes): grey levels between contours there; 0 = the steps "
+                             "everywhere (default: from the preset; 0 when steps or levels are given)"),
+    "smooth_grain": dict(type=float, metavar="T",
+                         help="on such smooth photographs, how far fine grain is smoothed before tracing, in "
+                              "multiples of the local noise; 0 = none (default: from the preset)"),
     "carrato_p": dict(type=float, metavar="P",
                       help="edge sharpness of the 2x upsampling the contours are traced on "
                            "(Carrato's p, paper §3.2)"),
@@ -87,7 +94,7 @@ ENCODE_FLAGS = {
                           help="sharpness of the upsampling between edges: 2 = sharp (Keys' a = -1 cubic), "
                                "1 = Catmull-Rom, 0 = linear (the paper's base)"),
 }
-ENCODE_ADVANCED = ("level_range", "local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
+ENCODE_ADVANCED = ("level_range", "smooth_step", "smooth_grain", "local_noise", "noise_floor", "prune_area_y", "prune_area_uv", "prune_contrast",
                    "min_tolerance", "max_tolerance", "carrato_p", "carrato_scale", "carrato_cubic")
 check_table(EncodeOptions, ENCODE_FLAGS)
 
