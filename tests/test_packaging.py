@@ -70,6 +70,8 @@ def test_the_wheel_holds_the_whole_package(dist):
     assert not missing, missing  # every module and data file of src/isophote
     assert not [n for n in names if n.endswith((".nbi", ".nbc", ".pyc"))]  # no caches
     assert "isophote = isophote.cli:main" in entry
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)  # the MIT licence
+    assert "License-Expression: MIT" in metadata
     for dep in ("numpy", "scipy", "numba", "pillow", "scikit-image"):
         assert f"Requires-Dist: {dep}>=" in metadata, dep
 
@@ -78,7 +80,7 @@ def test_the_sdist_holds_the_sources_and_the_tests(dist):
     _, sdist = dist
     with tarfile.open(sdist) as t:
         names = {n.split("/", 1)[1] for n in t.getnames() if "/" in n}
-    for f in ("pyproject.toml", "README.md", *(f"src/{p}" for p in _package_files())):
+    for f in ("pyproject.toml", "README.md", "LICENSE", *(f"src/{p}" for p in _package_files())):
         assert f in names, f
 
 
