@@ -32,6 +32,7 @@ from ...geometry import signed_areas
 from ...model import Channel
 
 FILTER_ID = "isophote-yuv"
+PREVIEW_ID = "isophote-preview"  # the group of the preview's polylines (to_svg's lines=True)
 COMPONENT = {"Y": 0, "U": 1, "V": 2}  # the colour component each chroma layer paints
 
 
@@ -92,15 +93,24 @@ def paints(ch: Channel, colour: str):
     return texts[0], texts[1:]
 
 
+# What the filter adds to R, G and B (0..255) before the viewer stores them in 8 bits: Chromium
+# rounds there, resvg truncates (measured: tests/format/test_svg_preview.py), so that the exact
+# matrix shows in resvg half a level dark on average (0.44 dB off the flat render's PSNR on
+# EveningGlow). A quarter level between the two: both within 0.75 of the exact value, with
+# mean errors of +-0.25 (benchmarks/results/svg_preview.md).
+STORE_OFFSET = 0.25
+
+
 def colour_matrix(to_srgb=None) -> np.ndarray:
     """(4, 5) feColorMatrix rows taking (Y, U, V, 1) on 0..1 to (R, G, B, 1): colour.py's
     YUV -> RGB matrix with U and V's offsets of 128 in the constant column, followed by
-    ``to_srgb`` ((3, 4) affine map on 0..255 RGB, icc_affine) when given."""
+    ``to_srgb`` ((3, 4) affine map on 0..255 RGB, icc_affine) when given, plus STORE_OFFSET."""
     lin = YUV_TO_RGB
     const = -(YUV_TO_RGB @ YUV_OFFSET)
     if to_srgb is not None:
         a = np.asarray(to_srgb, np.float64)
         lin, const = a[:, :3] @ lin, a[:, :3] @ const + a[:, 3]
+    const = const + STORE_OFFSET
     m = np.zeros((4, 5))
     m[:3, :3] = lin
     m[:3, 4] = const / 255.0
@@ -142,8 +152,9 @@ def icc_affine(vi):
 
 
 def compose(yuv8: np.ndarray, to_srgb=None) -> np.ndarray:
-    """What the filter shows for (..., 3) Y, U, V components on 0..255 (8-bit layers):
-    the matrix on 0..1, clamped (as feColorMatrix clamps), back on 0..255, not rounded."""
+    """What the filter computes for (..., 3) Y, U, V components on 0..255 (8-bit layers):
+    the matrix on 0..1 (STORE_OFFSET included), clamped (as feColorMatrix clamps), back on
+    0..255, before the viewer's 8-bit store (Chromium rounds it, resvg truncates it)."""
     m = colour_matrix(to_srgb)
     x = np.asarray(yuv8, np.float64) / 255.0
     rgb = x @ m[:3, :3].T + m[:3, 4]
