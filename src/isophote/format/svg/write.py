@@ -16,7 +16,7 @@ from ..limits import MAX_LEVELS, SVG_FORMAT_VERSION
 from ..validate import check_cap_ramp, check_image_kind, check_levels, check_semantics, meta_bytes
 from ...geometry import signed_areas
 from . import polyline
-from .preview import FILTER_ID, PREVIEW_ID, filter_def, icc_affine, paints
+from .preview import FILTER_ID, PREVIEW_ID, filter_def, icc_affine, layer_offset, paints
 from .profile import LOCAL_SCALE, MAX_CAP_VALUE, MAX_COORD, NS_INKSCAPE, NS_ISO, NS_SVG, UV_STROKES, check_svg_tone
 
 
@@ -67,15 +67,17 @@ def to_svg(vi: VectorImage, crisp: bool = True, lines: bool = True) -> str:
     if meta:
         out.append(f"<metadata><iso:meta>{_escape(meta)}</iso:meta></metadata>\n")
     yuv = vi.colour == "yuv"
+    shown = [ch for ch in vi.channels if ch.name in ("Y", "U", "V")]
+    offsets = {ch.name: layer_offset(ch, w, h) if yuv else 0.0 for ch in shown}
     if yuv:
-        out.append("<defs>\n" + filter_def(w, h, icc_affine(vi)) + "</defs>\n")
+        out.append("<defs>\n" + filter_def(w, h, icc_affine(vi), [offsets.get(c, 0.0) for c in "YUV"])
+                   + "</defs>\n")
     edges = ' shape-rendering="crispEdges"' if crisp else ""
     group = f'<g filter="url(#{FILTER_ID})"{edges}>\n' if yuv else f"<g{edges}>\n"
-    shown = [ch for ch in vi.channels if ch.name in ("Y", "U", "V")]
     if lines:
         out.append(group.replace("<g", f'<g id="{PREVIEW_ID}"', 1))
         for ch in shown:
-            out.extend(_preview_layer(ch, paints(ch, vi.colour), w, h))
+            out.extend(_preview_layer(ch, paints(ch, vi.colour, offsets[ch.name]), w, h))
         out.append("</g>\n")
         for ch in vi.channels:
             out.extend(_channel_layer(ch, None, w, h))
@@ -84,7 +86,8 @@ def to_svg(vi: VectorImage, crisp: bool = True, lines: bool = True) -> str:
         for ch in vi.channels:
             if ch.name == "A":
                 out.append("</g>\n")
-            out.extend(_channel_layer(ch, paints(ch, vi.colour) if ch in shown else None, w, h))
+            shown_here = ch.name in offsets
+            out.extend(_channel_layer(ch, paints(ch, vi.colour, offsets[ch.name]) if shown_here else None, w, h))
         if not vi.has_alpha:
             out.append("</g>\n")
     out.append("</svg>\n")
