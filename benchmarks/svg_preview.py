@@ -70,9 +70,9 @@ class Chromium:
 
 
 def data_bytes(text: str) -> int:
-    """The document less the preview's paint: what the contours alone cost."""
-    t = re.sub(r' fill="#[0-9a-f]{6}"', "", text)
-    t = re.sub(r"<rect [^>]*/>\n", "", t)
+    """The document less the preview (its group of polylines and the filter): what the
+    contours alone cost."""
+    t = re.sub(r'<g id="isophote-preview".*?</g>\n</g>\n(?=<g id="isophote-Y")', "", text, flags=re.S)
     return len(re.sub(r"<defs>.*?</defs>\n", "", t, flags=re.S).encode())
 
 
@@ -100,20 +100,21 @@ def measure(path: str, cache, chromium, work: str, shots, smooth_chromium: bool 
     flat = flat if flat.ndim == 3 else np.repeat(flat[..., None], 3, axis=2)
     row = dict(image=name, size=f"{w}x{h}", contours=sum(ch.n_contours for ch in vi.channels),
                flat_orig=M.psnr(img, flat))
-    for crisp in (True, False):
-        tag = "crisp" if crisp else "smooth"
+    for tag, crisp, lines in (("crisp", True, True), ("smooth", False, True), ("curves", True, False)):
         t = time.perf_counter()
-        text = svg.to_svg(vi, crisp=crisp)
+        text = svg.to_svg(vi, crisp=crisp, lines=lines)
         row[f"{tag}_write_s"] = time.perf_counter() - t
-        if crisp:
+        if tag == "crisp":
             row["svg"] = len(text.encode())
             row["data"] = data_bytes(text)
             row["exact"] = svg.from_svg(text).equals(vi)
+        elif tag == "curves":
+            row["curves_svg"] = len(text.encode())
         t = time.perf_counter()
         shown = resvg_pixels(text, w, h)
         row[f"{tag}_resvg_s"] = time.perf_counter() - t
         row[f"{tag}_resvg_flat"], row[f"{tag}_resvg_orig"] = M.psnr(flat, shown), M.psnr(img, shown)
-        if chromium is not None and (crisp or smooth_chromium):
+        if chromium is not None and (tag != "smooth" or smooth_chromium):
             p = os.path.join(work, f"{name}_{tag}.svg")
             with open(p, "w", encoding="utf-8") as f:
                 f.write(text)
@@ -122,32 +123,40 @@ def measure(path: str, cache, chromium, work: str, shots, smooth_chromium: bool 
             row[f"{tag}_chromium_s"] = time.perf_counter() - t
             os.remove(p)
             row[f"{tag}_chromium_flat"], row[f"{tag}_chromium_orig"] = M.psnr(flat, shown), M.psnr(img, shown)
-            if shots:
+            if shots and tag == "crisp":
                 os.makedirs(shots, exist_ok=True)
-                Image.fromarray(shown).save(os.path.join(shots, f"{name}_{tag}_chromium.png"))
+                Image.fromarray(shown).save(os.path.join(shots, f"{name}_chromium.png"))
     return row
 
 
 def table(rows, chromium: bool) -> str:
-    head = ["image", "contours", "flat vs orig", "resvg vs flat", "resvg vs orig"]
-    if chromium:
-        head += ["Chromium vs flat", "Chromium vs orig"]
+    viewers = ["resvg"] + (["chromium"] if chromium else [])
+    head = ["image", "contours", "flat vs orig"]
+    for v in viewers:
+        head += [f"{v} vs flat", f"{v} vs orig", f"{v} margin", f"curves: {v} margin"]
     smooth_c = chromium and "smooth_chromium_orig" in rows[0]
-    head += ["smooth: resvg vs orig"] + (["smooth: Chromium vs orig"] if smooth_c else [])
-    head += ["SVG bytes", "data bytes", "SVG/data", "exact re-import"]
+    head += ["smooth: resvg vs orig"] + (["smooth: chromium vs orig"] if smooth_c else [])
+    head += ["SVG bytes", "data bytes", "SVG/data", "curves SVG bytes", "SVG/curves", "exact re-import"]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    worst = []
     for r in rows:
-        c = [r["image"], str(r["contours"]), f"{r['flat_orig']:.2f}", f"{r['crisp_resvg_flat']:.2f}",
-             f"{r['crisp_resvg_orig']:.2f}"]
-        if chromium:
-            c += [f"{r['crisp_chromium_flat']:.2f}", f"{r['crisp_chromium_orig']:.2f}"]
+        c = [r["image"], str(r["contours"]), f"{r['flat_orig']:.2f}"]
+        margins = []
+        for v in viewers:
+            m = r[f"crisp_{v}_orig"] - r["flat_orig"]
+            margins.append((m, v))
+            c += [f"{r[f'crisp_{v}_flat']:.2f}", f"{r[f'crisp_{v}_orig']:.2f}", f"{m:+.2f}",
+                  f"{r[f'curves_{v}_orig'] - r['flat_orig']:+.2f}"]
+        worst.append(min(margins) + (r["image"],))
         c += [f"{r['smooth_resvg_orig']:.2f}"] + ([f"{r['smooth_chromium_orig']:.2f}"] if smooth_c else [])
-        c += [str(r["svg"]), str(r["data"]), f"{r['svg'] / r['data']:.3f}", "yes" if r["exact"] else "NO"]
+        c += [str(r["svg"]), str(r["data"]), f"{r['svg'] / r['data']:.3f}", str(r["curves_svg"]),
+              f"{r['svg'] / r['curves_svg']:.3f}", "yes" if r["exact"] else "NO"]
         out.append("| " + " | ".join(c) + " |")
-    worst = [min(r["crisp_resvg_orig"] - r["flat_orig"], *( [r["crisp_chromium_orig"] - r["flat_orig"]] if chromium else [])) for r in rows]
+    m, v, name = min(worst)
     out.append("")
-    out.append(f"worst (viewer vs original) - (flat vs original), crisp edges: {min(worst):+.2f} dB "
-               f"({rows[int(np.argmin(worst))]['image']}); largest SVG/data {max(r['svg'] / r['data'] for r in rows):.3f}")
+    out.append(f"worst margin (viewer vs original) - (flat vs original), default SVG: {m:+.2f} dB ({name}, {v}); "
+               f"largest SVG/data {max(r['svg'] / r['data'] for r in rows):.3f}, "
+               f"SVG/curves {min(r['svg'] / r['curves_svg'] for r in rows):.3f}-{max(r['svg'] / r['curves_svg'] for r in rows):.3f}")
     return "\n".join(out)
 
 
@@ -168,8 +177,8 @@ def main(argv=None) -> int:
         for p in paths:
             rows.append(measure(p, args.masters, chromium, args.work, args.shots, args.smooth_chromium))
             r = rows[-1]
-            print(f"# {r['image']}: resvg {r['crisp_resvg_flat']:.2f} dB vs flat"
-                  + (f", Chromium {r['crisp_chromium_flat']:.2f} ({r['crisp_chromium_s']:.1f} s)" if chromium else "")
+            print(f"# {r['image']}: resvg {r['crisp_resvg_orig'] - r['flat_orig']:+.2f} dB margin"
+                  + (f", Chromium {r['crisp_chromium_orig'] - r['flat_orig']:+.2f} ({r['crisp_chromium_s']:.1f} s)" if chromium else "")
                   + f", {r['svg']} bytes", file=sys.stderr, flush=True)
     finally:
         if chromium is not None:

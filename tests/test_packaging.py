@@ -1,6 +1,6 @@
 """Packaging: ``python -m build`` makes a wheel and an sdist holding the whole package, and
-the wheel installed in a fresh venv (no source tree) encodes, renders, describes and opens
-through Pillow.
+the wheel installed in a fresh venv (no source tree), its package made read-only, encodes,
+renders, describes and opens through Pillow, with numba's cache in the user's cache folder.
 
 The install test compiles every kernel in the new venv (1-2 minutes on a shared machine), so
 it runs only with ISOPHOTE_SLOW_TESTS=1 (``make test-slow``); pip's cache and its configured
@@ -85,14 +85,33 @@ def test_the_sdist_holds_the_sources_and_the_tests(dist):
 
 
 SMOKE = textwrap.dedent("""
-    import os, subprocess, sys
+    import importlib.util, os, subprocess, sys
+    # site-packages' isophote is read-only (the test took its write bits; as root, whom
+    # permissions do not stop, os.access is told so, as numba_cache.py asks it)
+    pkg = os.path.dirname(importlib.util.find_spec("isophote").origin)
+    if os.geteuid() == 0:
+        real = os.access
+        os.access = lambda p, mode, *a, **k: (False if mode & os.W_OK and os.path.abspath(p).startswith(pkg)
+                                              else real(p, mode, *a, **k))
     import numpy as np
     from PIL import Image
     import isophote
     assert "site-packages" in isophote.__file__, isophote.__file__
+    cache = os.path.join(os.environ["XDG_CACHE_HOME"], "isophote", "numba")
+    assert os.environ.get("NUMBA_CACHE_DIR") == cache, os.environ.get("NUMBA_CACHE_DIR")
     yy, xx = np.mgrid[0:24, 0:32]
     rgb = np.clip(np.stack([xx * 8.0, yy * 10.0, 128 + 60 * np.sin(xx / 4.0)], -1), 0, 255).astype(np.uint8)
     Image.fromarray(rgb).save("in.png")
+    isophote.encode(rgb).save("api.isoph")
+    im = Image.open("api.isoph")
+    assert im.format == "ISOPH" and im.size == (32, 24), (im.format, im.size)
+    im.thumbnail((16, 16))
+    assert im.size == (16, 12)
+    # the kernels compiled above were cached in the user's folder, none beside the package
+    found = [f for _, _, fs in os.walk(cache) for f in fs if f.endswith(".nbi")]
+    beside = [f for _, _, fs in os.walk(pkg) for f in fs if f.endswith((".nbi", ".nbc"))]
+    assert found and not beside, (len(found), beside[:3])
+    print("CACHED", len(found))
     exe = os.path.join(os.path.dirname(sys.executable), "isophote")
     for argv in (["encode", "in.png", "-o", "x.isoph", "--quiet"], ["render", "x.isoph", "-o", "x.png", "--quiet"],
                  ["info", "x.isoph"]):
@@ -101,10 +120,6 @@ SMOKE = textwrap.dedent("""
         print(out.stdout.strip())
     err = np.abs(np.asarray(Image.open("x.png"), float) - rgb).mean()
     assert err < 2.0, err
-    im = Image.open("x.isoph")
-    assert im.format == "ISOPH" and im.size == (32, 24), (im.format, im.size)
-    im.thumbnail((16, 16))
-    assert im.size == (16, 12)
     print("SMOKE OK", err)
 """)
 
@@ -122,7 +137,17 @@ def test_the_wheel_works_in_a_clean_venv(dist, tmp_path):
     assert pip.returncode == 0, pip.stderr[-3000:]
     work = tmp_path / "work"  # no source tree in sight
     work.mkdir()
-    out = subprocess.run([str(py), "-c", SMOKE], cwd=work, capture_output=True, text=True, env=_clean_env(),
-                         timeout=900)
+    site = Path(subprocess.run([str(py), "-c", "import importlib.util, os; "
+                                "print(os.path.dirname(importlib.util.find_spec('isophote').origin))"],
+                               capture_output=True, text=True, check=True).stdout.strip())
+    for p in [site, *site.rglob("*")]:  # a read-only install
+        p.chmod(p.stat().st_mode & ~0o222)
+    env = {**_clean_env(), "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    try:
+        out = subprocess.run([str(py), "-c", SMOKE], cwd=work, capture_output=True, text=True, env=env, timeout=900)
+    finally:
+        for p in [site, *site.rglob("*")]:
+            p.chmod(p.stat().st_mode | 0o200)
     assert out.returncode == 0 and "SMOKE OK" in out.stdout, out.stdout[-2000:] + out.stderr[-3000:]
+    assert "CACHED" in out.stdout
     assert "colour: sRGB" in out.stdout and "made by: isophote" in out.stdout

@@ -81,3 +81,14 @@ def test_svg_edges_crisp_by_default_smooth_on_request(isoph, tmp_path):
     assert main(["encode", str(crisp), "-o", str(a), "-q"]) == 0
     assert main(["encode", str(smooth), "-o", str(b), "-q"]) == 0
     assert a.read_bytes() == b.read_bytes()
+
+
+def test_svg_polylines_by_default_curves_on_request(isoph, tmp_path):
+    lines, curves = tmp_path / "l.svg", tmp_path / "c.svg"
+    assert main(["svg", str(isoph), "-o", str(lines), "-q"]) == 0
+    assert main(["svg", str(isoph), "-o", str(curves), "--curves", "-q"]) == 0
+    assert 'id="isophote-preview"' in lines.read_text() and "isophote-preview" not in curves.read_text()
+    a, b = tmp_path / "a.isoph", tmp_path / "b.isoph"
+    assert main(["encode", str(lines), "-o", str(a), "-q"]) == 0
+    assert main(["encode", str(curves), "-o", str(b), "-q"]) == 0
+    assert a.read_bytes() == b.read_bytes() == isoph.read_bytes()

@@ -236,14 +236,23 @@ def test_document_shape(small):
     text = svg.to_svg(small)
     w, h = small.width, small.height
     assert f'viewBox="0 0 {w} {h}"' in text and 'version="1.1"' in text
-    # Y, U and V are visible and filled, composed by the YUV -> RGB filter
-    assert text.count("display:none") == 0 and text.count("mix-blend-mode:lighten") == 2
+    # the preview: Y, U and V polylines, composed by the YUV -> RGB filter, above the hidden data
+    assert text.count('id="isophote-preview"') == 1 and text.count("mix-blend-mode:lighten") == 2
     assert text.count('filter="url(#isophote-yuv)"') == 1 and 'shape-rendering="crispEdges"' in text
     assert "crispEdges" not in svg.to_svg(small, crisp=False)
+    head, data = text.split('id="isophote-preview"')[1].split('<g id="isophote-Y"')
+    assert " c" not in head and "c-" not in head and "C" not in head.replace("Cross", "")  # lines only
+    assert data.count("display:none") == len(small.channels) and 'fill="#' not in data
+    # one painted path per depth and fill, every contour in one of them
     y = small.channel("Y")
-    assert text.count("<path ") == sum(ch.n_contours for ch in small.channels)
-    # painter's order: every parent is drawn before its children
-    order = [int(m) for m in re.findall(r'<path iso:c="(\d+) ', text)[: y.n_contours]]
+    assert text.count("<path iso:c=") == sum(ch.n_contours for ch in small.channels)
+    assert 0 < head.count("<path ") <= sum(ch.n_contours for ch in small.channels)
+    assert head.count("z") == sum(ch.n_contours for ch in small.channels)
+    # curves: the data paths themselves painted (the editor's layout), in painter's order
+    curves = svg.to_svg(small, lines=False)
+    assert "isophote-preview" not in curves and curves.count("display:none") == 0
+    assert curves.count("mix-blend-mode:lighten") == 2 and svg.from_svg(curves).equals(small)
+    order = [int(m) for m in re.findall(r'<path iso:c="(\d+) ', curves)[: y.n_contours]]
     seen = set()
     for k in order:
         p = int(y.parent[k])
@@ -550,13 +559,26 @@ def test_truncations_fail_cleanly(small):
     lambda t: 12345,
 ])
 def test_malformed_files_raise_format_error(small, mutate):
-    text = svg.to_svg(small)
+    # the data paths come first without the preview's polylines (which carry no data:
+    # test_preview_polylines_are_not_data)
+    text = svg.to_svg(small, lines=False)
     if "iso:caps=" not in text:  # the fixture has caps on Y
         pytest.fail("fixture lost its caps")
     bad = mutate(text)
     if isinstance(bad, str):
         assert bad != text
     _bad(bad)
+
+
+def test_preview_polylines_are_not_data(small):
+    """The reader takes nothing from the preview group: emptied, garbled or gone, the same image."""
+    text = svg.to_svg(small)
+    a = text.index('<g id="isophote-preview"')
+    b = text.index('<g id="isophote-Y"')
+    assert svg.from_svg(text).equals(small)
+    assert svg.from_svg(text[:a] + text[b:]).equals(small)
+    garbled = text[:a] + re.sub(r' d="[^"]*"', ' d="M0 0 L nan 1e999 z"', text[a:b]) + text[b:]
+    assert garbled != text and svg.from_svg(garbled).equals(small)
 
 
 def test_border_flags_must_be_binary(small):

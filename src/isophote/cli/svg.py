@@ -18,6 +18,10 @@ def add_arguments(p) -> None:
     p.add_argument("--smooth", action="store_true",
                    help="anti-alias the preview's edges (softer, but sharp edges creep outwards; "
                         "default: crisp edges, as isophote's own flat render)")
+    p.add_argument("--curves", action="store_true",
+                   help="paint the contours' Bezier paths themselves instead of the preview's polylines: "
+                        "about a third smaller, the layout to edit in Inkscape, but browsers draw curves "
+                        "coarsely (up to 1.7 dB further from the photograph on dense photographs)")
 
 
 def run(args) -> int:
@@ -25,7 +29,7 @@ def run(args) -> int:
 
     check_output(args.output, args.input, extensions=(".svg", ".svgz"), force=args.force, what="svg")
     vi = load(args.input)
-    save_svg(vi, args.output, crisp=not args.smooth)
+    save_svg(vi, args.output, crisp=not args.smooth, lines=not args.curves)
     say(args, f"{args.output}: {os.path.getsize(args.output):,} bytes, "
               f"{sum(ch.n_contours for ch in vi.channels)} contours")
     return 0

@@ -12,17 +12,29 @@ One document does two jobs:
   levels, through the tone curve; preview.py), stacked by the painter's algorithm (every
   parent before its children, so each contour paints its whole footprint and its children
   paint over it: no gaps between regions), over a rectangle in the root region's value.
-  A yuv image paints Y, U and V as the red, green and blue components of one group (U and
-  V blended on with ``mix-blend-mode:lighten``), and an ``feColorMatrix`` filter turns
-  that (Y, U, V) into RGB with colour.py's matrix; a grey image paints Y in grey. Edges are
-  crisp by default (``shape-rendering="crispEdges"``: each pixel shows the region at its
-  centre, as the flat render at 1x does; ``to_svg(vi, crisp=False)`` anti-aliases). The
-  preview is opaque: an alpha channel is kept (losslessly, hidden) but not shown.
+  The contours are painted as POLYLINES (polyline.py: each cubic cut into chords within
+  0.2 px, the vertices moved out so that each region keeps its area), not as the cubics:
+  viewers flatten a cubic themselves into 2 to 8 chords inside its arc, which on dense
+  photographs moves an eighth of the pixels to the neighbouring band. The polylines of one
+  channel, one depth and one colour share a path. A yuv image paints Y, U and V as the red,
+  green and blue components of one group (U and V blended on with
+  ``mix-blend-mode:lighten``), and an ``feColorMatrix`` filter turns that (Y, U, V) into
+  RGB with colour.py's matrix (plus a quarter level: resvg truncates the filter's result to
+  8 bits, Chromium rounds it); a grey image paints Y in grey. Edges are crisp by default
+  (``shape-rendering="crispEdges"``: each pixel shows the region at its centre, as the flat
+  render at 1x does; ``to_svg(vi, crisp=False)`` anti-aliases). The preview is opaque. It
+  is not data: the reader ignores the preview group.
 - the DATA: every contour of every channel, its level, its parent, its border flags, every
   cap annotation, the levels, base band and tone curve of each channel, and the image's
-  size, colour, source depth and meta. The Y, U and V contours ARE the preview's paths
-  (nothing is stored twice); A sits in a hidden layer. ``from_svg(to_svg(vi))`` equals ``vi`` exactly
-  (``VectorImage.equals``, dtypes included, for any valid image, on the 1/64 grid or not).
+  size, colour, source depth and meta, as the contours' exact cubic paths in one hidden
+  layer per channel (outlines, for an editor that shows them). ``from_svg(to_svg(vi))``
+  equals ``vi`` exactly (``VectorImage.equals``, dtypes included, for any valid image, on
+  the 1/64 grid or not).
+- ``to_svg(vi, lines=False)`` (``isophote svg --curves``) writes no polylines: the Y, U and
+  V data layers are visible and ARE the preview's paths (filled with their region's colour,
+  in painter's order, inside the filter group), the layout an editor wants; about a third
+  smaller, but up to 1.7 dB further from the flat render on dense photographs
+  (benchmarks/results/svg_preview.md).
 
 Layout::
 
@@ -32,22 +44,32 @@ Layout::
          iso:format="1" iso:width="W" iso:height="H" iso:colour="yuv" iso:source-depth="8">
       <metadata><iso:meta>{"json":"object"}</iso:meta></metadata>     (only if meta)
       <defs><filter id="isophote-yuv" ...><feColorMatrix .../></filter></defs>  (yuv only)
-      <g filter="url(#isophote-yuv)" shape-rendering="crispEdges">   (grey: no filter)
-        <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
-           transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
-           iso:base-band="0" iso:caps="contour band x y value ..."
-           [iso:tone="x0 y0 x1 y1 ..."] [iso:cap-ramp="R" or "dome"] stroke="none">
+      <g id="isophote-preview" filter="url(#isophote-yuv)" shape-rendering="crispEdges">
+        <g transform="scale(0.015625)">                                (Y; grey: no filter)
           <rect width="64W" height="64H" fill="#yy0000"/>            (the root region)
-          <path iso:c="k level parent orientation segments" [iso:b="0011..."]
-                fill="#yy0000" d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
+          <path fill="#yy0000" d="Mx yl dx dy dx dy ... zMx yl ... z"/>  (one depth, one colour)
           ...
         </g>
-        <g id="isophote-U" ... stroke="none" style="mix-blend-mode:lighten">
-          <rect ... fill="#00uu00"/> <path ... fill="#00uu00" .../> ... </g>
-        <g id="isophote-V" ... style="mix-blend-mode:lighten"> ... fill="#0000vv" ... </g>
+        <g transform="scale(0.015625)" style="mix-blend-mode:lighten"> U: fill="#00uu00" ... </g>
+        <g transform="scale(0.015625)" style="mix-blend-mode:lighten"> V: fill="#0000vv" ... </g>
       </g>
+      <g id="isophote-Y" inkscape:groupmode="layer" inkscape:label="Y"
+         transform="scale(0.015625)" iso:channel="Y" iso:levels="7.5 17.5 ..."
+         iso:base-band="0" iso:caps="contour band x y value ..."
+         [iso:tone="x0 y0 x1 y1 ..."] [iso:cap-ramp="R" or "dome"]
+         style="display:none" fill="none" stroke="#000" stroke-width="16">
+        <path iso:c="k level parent orientation segments" [iso:b="0011..."]
+              d="Mx yc dx dy dx dy dx dy ... z m dx dy ..."/>
+        ...
+      </g>
+      <g id="isophote-U" ...> ... </g>  <g id="isophote-V" ...> ... </g>
       <g id="isophote-A" ... style="display:none" fill="none" stroke="#..."> ... </g>
     </svg>
+
+With ``lines=False`` the preview group is absent and the Y, U and V layers sit inside
+``<g filter="url(#isophote-yuv)" shape-rendering="crispEdges">``, visible, with
+``stroke="none"`` (U and V with ``style="mix-blend-mode:lighten"``), a root rectangle each,
+and a ``fill`` on every path.
 
 The canvas is ``iso:width`` x ``iso:height`` source pixels (model.py's coordinates; the
 viewBox says the same to viewers). Inside a channel layer, coordinates are in 1/64 source
@@ -85,10 +107,12 @@ CAP_RAMP) is the ramp in pixels, a positive number, or "dome" for DOME (caps wit
 plateau, as equalisation leaves them). No attribute: CAP_RAMP.
 
 Preview colours: each region's flat value rounded to 8 bits (browsers keep 8 bits per
-component in the group the filter reads): at most 0.5 off in Y, U and V, 1.4 in R, G, B.
-The preview is not data (the reader ignores fills, rectangles, filter and blend modes). Its
-cost is one fill attribute per contour (15 bytes), a rectangle per layer and the filter: the
-file is the contours' path data plus about 15 bytes a contour, never anything per pixel.
+component in the group the filter reads): at most 0.5 off in Y, U and V, 1.4 in R, G, B,
+plus the quarter level the filter adds (preview.STORE_OFFSET). The preview is not data (the
+reader ignores the preview group, fills, rectangles, filter and blend modes). Its cost: the
+polylines (a few bytes a chord, at most 64 chords a cubic; 1.3-1.5x the curves SVG on the
+wide corpus), a rectangle per layer and the filter; never anything per pixel. With
+``lines=False``: one fill attribute per contour (15 bytes).
 Colour profiles: a yuv master that carries an ICC profile in meta (icc.py) keeps it in the
 SVG's meta, and its preview's filter ends in an affine map to sRGB fitted to LittleCMS on
 the image's own colours (preview.icc_affine; measured:
@@ -97,7 +121,9 @@ coded values as sRGB.
 
 Reading edited files
 ====================
-What a drawing program may do, and what ``from_svg`` makes of it:
+What a drawing program may do, and what ``from_svg`` makes of it (to the data layers: in
+the default layout the visible polylines are only the preview, so edit the file written
+with ``lines=False``, ``isophote svg --curves``, or show the hidden layers):
 
 - transforms on a path, a group or a layer (matrix, translate, scale, rotate, skewX, skewY,
   any composition): applied to the control points (a cubic under an affine map is the map

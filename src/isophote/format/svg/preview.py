@@ -17,8 +17,9 @@ each component only ever mixes values of its own channel). An ``feColorMatrix`` 
 group then applies colour.py's YUV -> RGB matrix, the offsets of U and V around 128
 folded into its constant column. ``color-interpolation-filters="sRGB"`` keeps the filter on
 the stored values (no linearRGB round trip). Intermediate layers hold 8 bits per component
-in browsers, so the painted values are rounded to integers: at most 0.5 off in Y, U and V,
-at most 1.4 in R, G, B after the matrix (resvg and Chromium show region interiors within 2
+in browsers, so the painted values are rounded to integers, after a per-layer offset that
+the matrix adds back (layer_offset: band mids are often all half-integers, painted exactly
+so): at most 0.5 off in Y, U and V, at most 1.4 in R, G, B after the matrix (resvg and Chromium show region interiors within 2
 levels of the flat render: tests/format/test_svg_preview.py). A grey image is its Y layer
 painted grey, with no filter.
 """
@@ -32,6 +33,7 @@ from ...geometry import signed_areas
 from ...model import Channel
 
 FILTER_ID = "isophote-yuv"
+PREVIEW_ID = "isophote-preview"  # the group of the preview's polylines (to_svg's lines=True)
 COMPONENT = {"Y": 0, "U": 1, "V": 2}  # the colour component each chroma layer paints
 
 
@@ -79,11 +81,39 @@ def region_values(ch: Channel):
     return float(vals[0]), vals[1:]
 
 
-def paints(ch: Channel, colour: str):
-    """(root fill, (C,) list of fills): the paint of each region of ``ch`` in the preview,
-    its value rounded to 8 bits, as grey (grey images) or as the channel's component."""
+def region_areas(ch: Channel, width: int, height: int) -> np.ndarray:
+    """(C + 1,) the area (px²) of the root region and of every contour's own region (its
+    footprint less its children's), from the chains' exact areas."""
+    a = np.abs(signed_areas(ch.points, ch.offsets)) if ch.n_contours else np.zeros(0)
+    par = ch.parent.astype(np.int64)
+    inner = np.bincount(par[par >= 0], weights=a[par >= 0], minlength=a.shape[0]) if a.size else a
+    return np.maximum(np.concatenate([[width * height - a[par < 0].sum()], a - inner]), 0.0)
+
+
+OFFSET_STEPS = 16  # the layer offsets tried: multiples of 1/16 in [-1/2, 1/2)
+
+
+def layer_offset(ch: Channel, width: int, height: int) -> float:
+    """The offset o (levels, in [-1/2, 1/2)) that the channel's layer is painted below its
+    values, rint(v - o), and that the filter adds back (colour_matrix's ``offsets``): the o
+    with the least area-weighted rounding error. Band mids are often all half-integers
+    (levels every 6 on half-integers): painted as they are, each band's rounding is half a
+    level, one way over a whole smooth sky; o = 1/2 paints them exactly."""
     root, vals = region_values(ch)
-    q = np.clip(np.rint(np.concatenate([[root], vals])), 0, 255).astype(np.int64).tolist()
+    v = np.concatenate([[root], vals])
+    w = region_areas(ch, width, height)
+    cands = np.arange(-OFFSET_STEPS // 2, OFFSET_STEPS // 2) / OFFSET_STEPS
+    err = [(w * (v - o - np.rint(v - o)) ** 2).sum() for o in cands]
+    best = int(np.argmin(err))
+    return 0.0 if err[best] >= err[OFFSET_STEPS // 2] - 1e-9 * max(1.0, err[OFFSET_STEPS // 2]) else float(cands[best])
+
+
+def paints(ch: Channel, colour: str, offset: float = 0.0):
+    """(root fill, (C,) list of fills): the paint of each region of ``ch`` in the preview,
+    its value less ``offset`` (layer_offset) rounded to 8 bits, as grey (grey images) or as
+    the channel's component."""
+    root, vals = region_values(ch)
+    q = np.clip(np.rint(np.concatenate([[root], vals]) - offset), 0, 255).astype(np.int64).tolist()
     if colour == "grey":
         texts = [f"#{v:02x}{v:02x}{v:02x}" for v in q]
     else:
@@ -92,15 +122,26 @@ def paints(ch: Channel, colour: str):
     return texts[0], texts[1:]
 
 
-def colour_matrix(to_srgb=None) -> np.ndarray:
+# What the filter adds to R, G and B (0..255) before the viewer stores them in 8 bits: Chromium
+# rounds there, resvg truncates (measured: tests/format/test_svg_preview.py), so that the exact
+# matrix shows in resvg half a level dark on average (0.44 dB off the flat render's PSNR on
+# EveningGlow). A quarter level between the two: both within 0.75 of the exact value, with
+# mean errors of +-0.25 (benchmarks/results/svg_preview.md).
+STORE_OFFSET = 0.25
+
+
+def colour_matrix(to_srgb=None, offsets=(0.0, 0.0, 0.0)) -> np.ndarray:
     """(4, 5) feColorMatrix rows taking (Y, U, V, 1) on 0..1 to (R, G, B, 1): colour.py's
     YUV -> RGB matrix with U and V's offsets of 128 in the constant column, followed by
-    ``to_srgb`` ((3, 4) affine map on 0..255 RGB, icc_affine) when given."""
+    ``to_srgb`` ((3, 4) affine map on 0..255 RGB, icc_affine) when given, plus STORE_OFFSET.
+    ``offsets``: what the Y, U and V layers were painted below their values (layer_offset),
+    added back before the matrix."""
     lin = YUV_TO_RGB
-    const = -(YUV_TO_RGB @ YUV_OFFSET)
+    const = -(YUV_TO_RGB @ (YUV_OFFSET - np.asarray(offsets, np.float64)))
     if to_srgb is not None:
         a = np.asarray(to_srgb, np.float64)
         lin, const = a[:, :3] @ lin, a[:, :3] @ const + a[:, 3]
+    const = const + STORE_OFFSET
     m = np.zeros((4, 5))
     m[:3, :3] = lin
     m[:3, 4] = const / 255.0
@@ -141,18 +182,20 @@ def icc_affine(vi):
     return a.T
 
 
-def compose(yuv8: np.ndarray, to_srgb=None) -> np.ndarray:
-    """What the filter shows for (..., 3) Y, U, V components on 0..255 (8-bit layers):
-    the matrix on 0..1, clamped (as feColorMatrix clamps), back on 0..255, not rounded."""
-    m = colour_matrix(to_srgb)
+def compose(yuv8: np.ndarray, to_srgb=None, offsets=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """What the filter computes for (..., 3) Y, U, V components on 0..255 (8-bit layers):
+    the matrix on 0..1 (STORE_OFFSET included), clamped (as feColorMatrix clamps), back on
+    0..255, before the viewer's 8-bit store (Chromium rounds it, resvg truncates it)."""
+    m = colour_matrix(to_srgb, offsets)
     x = np.asarray(yuv8, np.float64) / 255.0
     rgb = x @ m[:3, :3].T + m[:3, 4]
     return np.clip(rgb, 0.0, 1.0) * 255.0
 
 
-def filter_def(width: int, height: int, to_srgb=None) -> str:
-    """The <filter> element composing the Y, U, V group into RGB (then sRGB: ``to_srgb``)."""
-    vals = " ".join(f"{v:.6g}" for v in colour_matrix(to_srgb).reshape(-1))
+def filter_def(width: int, height: int, to_srgb=None, offsets=(0.0, 0.0, 0.0)) -> str:
+    """The <filter> element composing the Y, U, V group (painted ``offsets`` below their
+    values) into RGB (then sRGB: ``to_srgb``)."""
+    vals = " ".join(f"{v:.7g}" for v in colour_matrix(to_srgb, offsets).reshape(-1))
     return (f'<filter id="{FILTER_ID}" filterUnits="userSpaceOnUse" x="0" y="0" width="{width}" '
             f'height="{height}" color-interpolation-filters="sRGB">'
             f'<feColorMatrix type="matrix" values="{vals}"/></filter>\n')

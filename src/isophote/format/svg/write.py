@@ -15,11 +15,12 @@ from ...model import CAP_RAMP, Channel, VectorImage
 from ..limits import MAX_LEVELS, SVG_FORMAT_VERSION
 from ..validate import check_cap_ramp, check_image_kind, check_levels, check_semantics, meta_bytes
 from ...geometry import signed_areas
-from .preview import FILTER_ID, filter_def, icc_affine, paints
+from . import polyline
+from .preview import FILTER_ID, PREVIEW_ID, filter_def, icc_affine, layer_offset, paints
 from .profile import LOCAL_SCALE, MAX_CAP_VALUE, MAX_COORD, NS_INKSCAPE, NS_ISO, NS_SVG, UV_STROKES, check_svg_tone
 
 
-def to_svg(vi: VectorImage, crisp: bool = True) -> str:
+def to_svg(vi: VectorImage, crisp: bool = True, lines: bool = True) -> str:
     """The isophote SVG document of ``vi`` (see the module docstring).
 
     Parameters
@@ -32,6 +33,12 @@ def to_svg(vi: VectorImage, crisp: bool = True) -> str:
         to look at but further from the photograph where many contours share an edge (each
         nested contour's partial coverage paints over the last, so a sharp edge creeps
         outwards: see benchmarks/results/svg_preview.md).
+    lines : bool
+        Paint the preview as polylines (polyline.py; the default): viewers flatten cubics too
+        coarsely to show dense contours as the flat render does. The contours' cubic paths
+        (the data) then sit in hidden layers. False: the data paths themselves are painted
+        (a smaller file, the layers an editor shows, about 1-1.7 dB further from the flat
+        render on dense photographs in resvg and Chromium).
 
     Returns
     -------
@@ -60,28 +67,40 @@ def to_svg(vi: VectorImage, crisp: bool = True) -> str:
     if meta:
         out.append(f"<metadata><iso:meta>{_escape(meta)}</iso:meta></metadata>\n")
     yuv = vi.colour == "yuv"
+    shown = [ch for ch in vi.channels if ch.name in ("Y", "U", "V")]
+    offsets = {ch.name: layer_offset(ch, w, h) if yuv else 0.0 for ch in shown}
     if yuv:
-        out.append("<defs>\n" + filter_def(w, h, icc_affine(vi)) + "</defs>\n")
+        out.append("<defs>\n" + filter_def(w, h, icc_affine(vi), [offsets.get(c, 0.0) for c in "YUV"])
+                   + "</defs>\n")
     edges = ' shape-rendering="crispEdges"' if crisp else ""
-    out.append(f'<g filter="url(#{FILTER_ID})"{edges}>\n' if yuv else f"<g{edges}>\n")
-    for ch in vi.channels:
-        shown = ch.name in ("Y", "U", "V")
-        if ch.name == "A":
-            out.append("</g>\n")
-        out.extend(_channel_layer(ch, paints(ch, vi.colour) if shown else None, w, h))
-    if not vi.has_alpha:
+    group = f'<g filter="url(#{FILTER_ID})"{edges}>\n' if yuv else f"<g{edges}>\n"
+    if lines:
+        out.append(group.replace("<g", f'<g id="{PREVIEW_ID}"', 1))
+        for ch in shown:
+            out.extend(_preview_layer(ch, paints(ch, vi.colour, offsets[ch.name]), w, h))
         out.append("</g>\n")
+        for ch in vi.channels:
+            out.extend(_channel_layer(ch, None, w, h))
+    else:
+        out.append(group)
+        for ch in vi.channels:
+            if ch.name == "A":
+                out.append("</g>\n")
+            shown_here = ch.name in offsets
+            out.extend(_channel_layer(ch, paints(ch, vi.colour, offsets[ch.name]) if shown_here else None, w, h))
+        if not vi.has_alpha:
+            out.append("</g>\n")
     out.append("</svg>\n")
     return "".join(out)
 
 
-def save_svg(vi: VectorImage, path, compress=None, crisp: bool = True) -> None:
-    """Write ``vi`` as SVG to ``path`` atomically (``crisp``: see to_svg).
+def save_svg(vi: VectorImage, path, compress=None, crisp: bool = True, lines: bool = True) -> None:
+    """Write ``vi`` as SVG to ``path`` atomically (``crisp``, ``lines``: see to_svg).
 
     ``compress`` None: gzip (SVGZ) when the name ends in ``.svgz``. The gzip stream is
     deterministic (mtime 0, no file name).
     """
-    data = to_svg(vi, crisp=crisp).encode("utf-8")
+    data = to_svg(vi, crisp=crisp, lines=lines).encode("utf-8")
     if compress is None:
         compress = os.fspath(path).lower().endswith(".svgz")
     if compress:
@@ -202,6 +221,34 @@ def _channel_layer(ch: Channel, paint, w: int, h: int) -> list:
     return out
 
 
+def _preview_layer(ch: Channel, paint, w: int, h: int) -> list:
+    """The preview's layer of one channel: its root rectangle, then its contours as
+    polylines (polyline.py), one path per depth and fill (every depth after the one above
+    it: the painter's order of _painter_order; contours of one depth never nest, so one
+    nonzero fill of them, all run one way, paints each one's footprint)."""
+    root, fills = paint
+    blend = ' style="mix-blend-mode:lighten"' if ch.name in ("U", "V") else ""
+    out = [f'<g transform="scale({1 / LOCAL_SCALE!r})"{blend}>\n',
+           f'<rect width="{w * LOCAL_SCALE}" height="{h * LOCAL_SCALE}" fill="{root}"/>\n']
+    if ch.n_contours:
+        vert, vo = polyline.vertices(ch.points, ch.offsets, ch.border)
+        d = polyline.path_data(vert, vo, LOCAL_SCALE, signed_areas(ch.points, ch.offsets) < 0)
+        depth = _depths(ch.parent)
+        names = sorted(set(fills))
+        fill_ix = np.searchsorted(names, fills)
+        order = np.lexsort((np.arange(depth.shape[0]), fill_ix, depth)).tolist()
+        key = (depth * len(names) + fill_ix).tolist()
+        i = 0
+        while i < len(order):
+            j = i
+            while j < len(order) and key[order[j]] == key[order[i]]:
+                j += 1
+            out.append(f'<path fill="{fills[order[i]]}" d="{"".join(d[k] for k in order[i:j])}"/>\n')
+            i = j
+    out.append("</g>\n")
+    return out
+
+
 def _path_data(q: np.ndarray, offsets: np.ndarray, cap_local: np.ndarray, cap_contour: np.ndarray) -> list:
     """Path data of every chain, in local units, followed by its caps' markers.
 
@@ -270,12 +317,11 @@ def _caps_text(ch: Channel, q: np.ndarray) -> str:
     return " ".join(" ".join(t) for t in zip(*cols))
 
 
-def _painter_order(parent: np.ndarray) -> np.ndarray:
-    """Contour indices with every parent before its children: stable by depth."""
+def _depths(parent: np.ndarray) -> np.ndarray:
+    """(C,) every contour's depth below the frame (0: a child of the frame)."""
     c = parent.shape[0]
-    depth = np.full(c, -1, np.int64)
     par = parent.tolist()
-    dl = depth.tolist()
+    dl = [-1] * c
     for k in range(c):
         path = []
         j = k
@@ -286,5 +332,9 @@ def _painter_order(parent: np.ndarray) -> np.ndarray:
         for j in reversed(path):
             d += 1
             dl[j] = d
-    return np.argsort(np.asarray(dl, np.int64), kind="stable")
+    return np.asarray(dl, np.int64)
 
+
+def _painter_order(parent: np.ndarray) -> np.ndarray:
+    """Contour indices with every parent before its children: stable by depth."""
+    return np.argsort(_depths(parent), kind="stable")
