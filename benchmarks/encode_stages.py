@@ -20,7 +20,7 @@ import numpy as np
 from isophote import encoder as E
 from isophote.colour import rgb_to_yuv
 from isophote.encoder import budget, hierarchy, levels as L, noise
-from isophote.encoder.levelgroups import plane_isolines
+from isophote.encoder.strips import strip_isolines
 from isophote.imageio import read_image
 from isophote.options import EncodeOptions
 
@@ -53,8 +53,8 @@ def stages(plane, name, opts, memory, report):
         return res
 
     p2, eps = stage("prepare (noise, pruning)", lambda: noise.prepare_plane(name, plane, 0.5, lev, opts))
-    iso = stage("map + isolines (level groups)",
-                lambda: plane_isolines(p2, eps, lev, opts, budget.group_segments(memory)))
+    iso = stage("map + isolines (strips)",
+                lambda: strip_isolines(p2, eps, lev, opts, budget.strip_rows(memory, plane.shape[1]), E.STRIP_WORKERS))
     del p2, eps
     if report:
         held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",

@@ -16,7 +16,7 @@ import isophote.encoder as E
 from isophote import OptionError
 from isophote.cli import main
 from isophote.colour import rgb_to_yuv
-from isophote.encoder import budget, levelgroups
+from isophote.encoder import budget, levelgroups, strips
 from isophote.encoder.isolines import find_isolines
 from isophote.encoder.levels import channel_levels
 from isophote.encoder.mapping import map_pixels
@@ -106,12 +106,32 @@ def test_bytes_do_not_depend_on_the_budget(monkeypatch, preset):
     img = texture(150, 200)
     big = dumps(isophote.encode(img, preset=preset, memory="8G"))
     calls = []
-    real = levelgroups.march_loops
-    monkeypatch.setattr(levelgroups, "march_loops", lambda *a: calls.append(1) or real(*a))
+    real = strips.march_strip
+    monkeypatch.setattr(strips, "march_strip", lambda *a: calls.append(1) or real(*a))
     small = dumps(isophote.encode(img, preset=preset, memory=1))
-    assert len(calls) > 3 * 3  # several level groups a channel
+    assert len(calls) > 3 * 3  # several strips a channel
     assert small == big
     assert dumps(isophote.encode(img, preset=preset, memory="300K")) == big
+
+
+@pytest.mark.parametrize("preset", ["balanced", "high"])
+def test_bytes_do_not_depend_on_the_strip_height(monkeypatch, preset):
+    """Strips of 1, 2, 7 and 40 cell rows (the padded grid has 2 x 120 + 3 rows), and strips
+    marched one or two at a time, give the bytes of one strip over the whole grid."""
+    img = texture(120, 90, seed=4)
+    monkeypatch.setattr(E, "strip_rows", lambda memory, width: 1 << 30)
+    whole = dumps(isophote.encode(img, preset=preset))
+    for rows, workers in ((1, 2), (2, 1), (7, 2), (40, 1)):
+        monkeypatch.setattr(E, "strip_rows", lambda memory, width, r=rows: r)
+        monkeypatch.setattr(E, "STRIP_WORKERS", workers)
+        assert dumps(isophote.encode(img, preset=preset)) == whole, (rows, workers)
+
+
+def test_strip_rows_follow_the_budget():
+    assert budget.strip_rows(1, 100) >= 1
+    wide, narrow = budget.strip_rows(2 << 30, 5120), budget.strip_rows(2 << 30, 1280)
+    assert 8 <= wide < narrow  # the same bytes a strip: taller strips on narrower images
+    assert budget.strip_rows(256 << 20, 5120) < wide
 
 
 def test_budget_decides_channels_and_overlap():

@@ -42,7 +42,41 @@ BYTES_PER_FIT_POINT = 80
 BYTES_PER_HIERARCHY_POINT = 50
 BYTES_PER_REACH_POINT = 52
 OVERLAP_SHARE = 0.25
+# a strip's working set per sample of its window of the padded grid (encoder/strips.py: the
+# window's values, bands and errors and their mapping, 60 bytes; the cell table, links and
+# per-point temporaries, about 200 bytes a segment, at up to 0.9 segments a sample on
+# textured photographs)
+STRIP_SHARE = 0.125
+BYTES_PER_STRIP_SAMPLE = 256
 MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
+
+# Blocks of this size and up are mapped on their own, and given back to the system when
+# freed (glibc's M_MMAP_THRESHOLD, fixed: glibc otherwise raises it to the largest block freed
+# so far, up to 32 MB, and the heap then keeps every strip's freed temporaries beneath the
+# results that follow them). 2 MP mosaic crop, balanced, whole process: 2,170 MB peak with
+# glibc's default, 1,578 MB with 1 MiB (benchmarks/results/encode_scale.md).
+MMAP_THRESHOLD = 1 << 20
+_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
+_heap_set = False
+
+
+def return_freed_memory() -> None:
+    """Have the C allocator give large freed blocks back to the system at once (glibc
+    only, once per process; elsewhere nothing). The encoder's strips free and allocate
+    blocks of many sizes; without this the peak RSS follows what was freed, not what is held."""
+    global _heap_set
+    if _heap_set:
+        return
+    _heap_set = True
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        if hasattr(libc, "mallopt") and hasattr(libc, "gnu_get_libc_version"):
+            libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+    except (OSError, AttributeError):  # no C library to ask: the default allocator
+        pass
+
 
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 
@@ -69,6 +103,12 @@ def parse_memory(value) -> int:
 def group_segments(memory: int) -> int:
     """The most segments a level group should hold."""
     return max(int(GROUP_SHARE * memory), MIN_UNIT) // BYTES_PER_SEGMENT
+
+
+def strip_rows(memory: int, width: int) -> int:
+    """Cell rows of the padded grid a strip should hold, for an image ``width`` pixels wide
+    (padded grid rows are 2 width + 3 samples)."""
+    return max(1, max(int(STRIP_SHARE * memory), MIN_UNIT) // (BYTES_PER_STRIP_SAMPLE * (2 * width + 3)))
 
 
 def fit_batch_points(memory: int) -> int:

@@ -127,10 +127,12 @@ def march_groups(vals, band, grid_eps, levels, min_tol, max_tol, max_segments) -
 
 
 def merge_groups(parts, hp, wp, nl) -> dict:
-    """The loops of all groups in order of their smallest start key, field by field: each
+    """The loops of all groups (or strips: a part may bring its loops' keys, "keys") in order
+    of their smallest start key, field by field: each
     group's points are scattered to their places in the output and dropped, so the merge
     holds the groups' results, one output field and one group's destinations at a time."""
-    keys = np.concatenate([loop_keys(p["below"], p["above"], p["offsets"], p["level"], hp, wp, nl)
+    keys = np.concatenate([p.pop("keys") if "keys" in p else
+                           loop_keys(p["below"], p["above"], p["offsets"], p["level"], hp, wp, nl)
                            for p in parts])
     order = np.argsort(keys, kind="stable")
     del keys
