@@ -79,6 +79,7 @@ def main(argv=None) -> int:
     plane = np.ascontiguousarray(yuv[..., "YUV".index(args.channel)])
     del a, yuv, img
     opts = EncodeOptions(preset=args.preset).resolved()
+    budget.return_freed_memory()  # as encode does
     memory = budget.parse_memory(args.memory)
     stages(plane[:128, :128].copy(), args.channel, opts, memory, False)  # kernels loaded
     print(f"{args.channel} of {plane.shape[1]}x{plane.shape[0]}, {args.preset}, memory {args.memory}\n")

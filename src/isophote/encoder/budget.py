@@ -52,10 +52,11 @@ MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
 
 # Blocks of this size and up are mapped on their own, and given back to the system when
 # freed (glibc's M_MMAP_THRESHOLD, fixed: glibc otherwise raises it to the largest block freed
-# so far, up to 32 MB, and the heap then keeps every strip's freed temporaries beneath the
-# results that follow them). 2 MP mosaic crop, balanced, whole process: 2,170 MB peak with
-# glibc's default, 1,578 MB with 1 MiB (benchmarks/results/encode_scale.md).
-MMAP_THRESHOLD = 1 << 20
+# so far, up to 32 MB, and its heaps then keep every strip's freed temporaries beneath the
+# results that follow them). Whole process, balanced: the 2 MP mosaic crop 2,170 MB with
+# glibc's default, 1,578 MB with 1 MiB, 1,230 MB with 256 KiB (the per-strip results of
+# narrow strips are blocks of a few hundred KiB); benchmarks/results/encode_scale.md.
+MMAP_THRESHOLD = 1 << 18
 _M_MMAP_THRESHOLD = -3  # glibc's malloc.h
 _heap_set = False
 
@@ -76,6 +77,25 @@ def return_freed_memory() -> None:
             libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
     except (OSError, AttributeError):  # no C library to ask: the default allocator
         pass
+
+
+_libc = None
+
+
+def trim_heap() -> None:
+    """Give the free pages of every heap arena back to the system (glibc's malloc_trim;
+    elsewhere nothing): small blocks freed between the ones kept stay in the arenas otherwise."""
+    global _libc
+    if _libc is None:
+        try:
+            import ctypes
+
+            lib = ctypes.CDLL(None)
+            _libc = lib if hasattr(lib, "malloc_trim") and hasattr(lib, "gnu_get_libc_version") else False
+        except OSError:
+            _libc = False
+    if _libc:
+        _libc.malloc_trim(0)
 
 
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}

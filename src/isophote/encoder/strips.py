@@ -29,6 +29,7 @@ from .isolines import Isolines
 from .levelgroups import merge_groups
 from .mapping import map_rows
 from .ribbon import tolerances
+from .budget import trim_heap
 
 FIELDS = ("points", "border", "below", "above", "tol")
 
@@ -184,6 +185,8 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
             part = _closed_part(closed)
             if part is not None:
                 parts.append(part)
+            del loops, pieces, closed, part
+            trim_heap()  # the strip's freed temporaries go back (encoder/budget.py)
     if carried:
         raise RuntimeError("marching squares produced an open contour")  # a bug, never input
     frame_levels = np.array(sorted(frame), np.int64)
