@@ -228,8 +228,14 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     same result: batches bound the fit's temporaries (encoder/budget.py)."""
     if iso.n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
-    reach = np.minimum(_joint_reach(iso, tol), np.maximum(tol - _JOINT_ROUNDING, 0.0))
+    # in place: these are whole-channel arrays (8 bytes a point each)
+    tol = iso.tol - _ROUNDING
+    np.maximum(tol, 0.25 * iso.tol, out=tol)
+    reach = _joint_reach(iso, tol)
+    cap = tol - _JOINT_ROUNDING
+    np.maximum(cap, 0.0, out=cap)
+    np.minimum(reach, cap, out=reach)
+    del cap
     offs = iso.offsets
     if max_points is None or offs[-1] <= max_points:
         return _fit_batch(iso.points, offs, iso.border, tol, reach, snap)

@@ -1,5 +1,8 @@
 """Isolines level group by level group, so that marching holds one group's segments at a time.
 
+The encoder marches strips of rows instead (encoder/strips.py), which bound the same working
+set and the grid with it; it uses :func:`merge_groups` to put the strips' loops in order.
+
 The loops of one level depend on that level alone (its crossings, its saddle decisions:
 _kernels/marching.py), so marching a channel's levels in groups gives exactly the loops of
 one march over all of them. A group [a, b) is marched on the band grid clipped to [a, b]
