@@ -20,7 +20,7 @@ import numpy as np
 from isophote import encoder as E
 from isophote.colour import rgb_to_yuv
 from isophote.encoder import budget, hierarchy, levels as L, noise
-from isophote.encoder.levelgroups import plane_isolines
+from isophote.encoder.strips import strip_isolines
 from isophote.imageio import read_image
 from isophote.options import EncodeOptions
 
@@ -53,8 +53,8 @@ def stages(plane, name, opts, memory, report):
         return res
 
     p2, eps = stage("prepare (noise, pruning)", lambda: noise.prepare_plane(name, plane, 0.5, lev, opts))
-    iso = stage("map + isolines (level groups)",
-                lambda: plane_isolines(p2, eps, lev, opts, budget.group_segments(memory)))
+    iso = stage("map + isolines (strips)",
+                lambda: strip_isolines(p2, eps, lev, opts, budget.strip_rows(memory, plane.shape[1]), E.STRIP_WORKERS))
     del p2, eps
     if report:
         held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
@@ -79,6 +79,7 @@ def main(argv=None) -> int:
     plane = np.ascontiguousarray(yuv[..., "YUV".index(args.channel)])
     del a, yuv, img
     opts = EncodeOptions(preset=args.preset).resolved()
+    budget.return_freed_memory()  # as encode does
     memory = budget.parse_memory(args.memory)
     stages(plane[:128, :128].copy(), args.channel, opts, memory, False)  # kernels loaded
     print(f"{args.channel} of {plane.shape[1]}x{plane.shape[0]}, {args.preset}, memory {args.memory}\n")

@@ -26,8 +26,8 @@ from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy
 from .isolines import Isolines, find_isolines
-from .budget import fit_batch_points, group_segments, overlap_fit_and_hierarchy, parse_memory
-from .levelgroups import plane_isolines
+from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
+from .strips import strip_isolines
 from .levels import channel_levels
 from .mapping import map_pixels
 from .noise import adapt_steps, prepare_plane
@@ -46,6 +46,8 @@ HANDLE_SHIFT = 5
 # _kernels/fit.py, step 5): the file codes such a coordinate 5 bits shorter.
 # ANCHOR_REACH: encoder/fit.py.
 ANCHOR_GRID = 0.5
+# Strips marched at a time (each also holds its share of the budget: budget.strip_rows).
+STRIP_WORKERS = 2
 # Cap values are rounded to this fraction of the input's error (cap_value_step).
 CAP_STEP = 0.5
 
@@ -102,6 +104,7 @@ def encode_pixels(pixels: np.ndarray, depth: int, opts: EncodeOptions) -> Vector
 def _encode_held(held: list, depth: int, opts: EncodeOptions) -> VectorImage:
     """encode_pixels of the one array in ``held``, which is emptied: an RGB(A) input is
     dropped once converted to YUV, when no one else holds it (24 bytes a pixel less)."""
+    return_freed_memory()  # glibc: freed strips go back to the system (encoder/budget.py)
     pixels = held.pop()
     h, w, c = pixels.shape
     if c in (1, 2):
@@ -163,8 +166,8 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     cap_step = cap_value_step(eps)
     memory = parse_memory(opts.memory)
     plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
-    # map_pixels and find_isolines, marched in level groups sized by the budget (same loops)
-    iso = plane_isolines(plane, eps, levels, opts, group_segments(memory))
+    # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
+    iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), STRIP_WORKERS)
     del plane, eps
     if overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
@@ -225,8 +228,14 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     same result: batches bound the fit's temporaries (encoder/budget.py)."""
     if iso.n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    tol = np.maximum(iso.tol - _ROUNDING, 0.25 * iso.tol)
-    reach = np.minimum(_joint_reach(iso, tol), np.maximum(tol - _JOINT_ROUNDING, 0.0))
+    # in place: these are whole-channel arrays (8 bytes a point each)
+    tol = iso.tol - _ROUNDING
+    np.maximum(tol, 0.25 * iso.tol, out=tol)
+    reach = _joint_reach(iso, tol)
+    cap = tol - _JOINT_ROUNDING
+    np.maximum(cap, 0.0, out=cap)
+    np.minimum(reach, cap, out=reach)
+    del cap
     offs = iso.offsets
     if max_points is None or offs[-1] <= max_points:
         return _fit_batch(iso.points, offs, iso.border, tol, reach, snap)
@@ -348,8 +357,8 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
     counts = np.diff(iso.offsets)
-    level = np.repeat(iso.level, counts).astype(np.int64)
-    loop = np.repeat(np.arange(counts.shape[0]), counts)
+    level = np.repeat(iso.level.astype(np.int32), counts)  # int32: 8 bytes a point less each
+    loop = np.repeat(np.arange(counts.shape[0], dtype=np.int32), counts)
     return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), level, loop, tol,
                        iso.values.shape[1], ANCHOR_REACH)
 

@@ -4,20 +4,18 @@
 bytes) that sizes the units of work; it never changes the output: the same input and
 options give the same bytes whatever the budget (tests/encoder/test_encode_budget.py).
 
-What it sizes today (encoder/levelgroups.py, encoder/batches.py):
-    level groups   marching squares runs over groups of a channel's levels (loops of one
-                   level never depend on another's), each group's working set (about 66
-                   bytes a segment for the cell table, 40 for linking and travel order)
-                   kept under GROUP_SHARE of the budget;
+What it sizes today (encoder/strips.py, encoder/__init__.py):
+    strips         the channel's grid is computed and marched in strips of rows, each
+                   strip's working set (about BYTES_PER_STRIP_SAMPLE bytes a sample of its
+                   window of the padded grid) kept under STRIP_SHARE of the budget;
     fit batches    loops are fitted in batches of at most FIT_SHARE of the budget (about
                    BYTES_PER_FIT_POINT bytes a polyline point of temporaries);
     fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
-What it does not bound yet: the per-channel grids (values and bands, 40 bytes a grid
-sample, 4 grid samples a pixel), the polylines of a channel (about 41 bytes a point,
-1-4 points a pixel on textured photographs) and the hierarchy's temporaries; see
-docs/streaming.md for the strip design that does.
+What it does not bound yet: the padded values and bands of a channel (40 bytes a pixel),
+its polylines (about 41 bytes a point, 1-4 points a pixel on textured photographs), the
+hierarchy's and the joint reaches' temporaries; docs/streaming.md says what remains.
 """
 
 from __future__ import annotations
@@ -27,11 +25,7 @@ import re
 from ..errors import OptionError
 
 DEFAULT_MEMORY = "2G"  # a laptop's share: the issue's target for a 16 MP photograph
-GROUP_SHARE = 0.125
 FIT_SHARE = 0.125
-# marching working set per segment (encoder/_kernels/marching.py: the cell table 66 bytes,
-# links and travel order 16, the travel-order buffer 32, per-point outputs 73)
-BYTES_PER_SEGMENT = 190
 # fit temporaries per point (encoder/__init__.py fit_isolines: the concatenated pieces,
 # their tolerances and reaches, index arrays and the fitter's scratch; measured 266 bytes a
 # pixel at 3.6 points a pixel on the 16 MP mosaic's crops)
@@ -42,7 +36,56 @@ BYTES_PER_FIT_POINT = 80
 BYTES_PER_HIERARCHY_POINT = 50
 BYTES_PER_REACH_POINT = 52
 OVERLAP_SHARE = 0.25
+# a strip's working set per sample of its window of the padded grid (encoder/strips.py: the
+# window's values, bands and errors and their mapping, 60 bytes; the cell table, links and
+# per-point temporaries, about 200 bytes a segment, at up to 0.9 segments a sample on
+# textured photographs)
+STRIP_SHARE = 0.125
+BYTES_PER_STRIP_SAMPLE = 256
 MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
+
+# Blocks of this size and up are mapped on their own, and given back to the system when
+# freed (glibc's M_MMAP_THRESHOLD, fixed: glibc otherwise raises it to the largest block freed
+# so far, up to 32 MB, and its heaps then keep every strip's freed temporaries beneath the
+# results that follow them). Whole process, balanced: the 2 MP mosaic crop 2,170 MB with
+# glibc's default, 1,578 MB with 1 MiB, 1,230 MB with 256 KiB (the per-strip results of
+# narrow strips are blocks of a few hundred KiB); benchmarks/results/encode_scale.md.
+MMAP_THRESHOLD = 1 << 18
+_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
+_libc = None
+_heap_set = False
+
+
+def _glibc():
+    """The C library when it is glibc (mallopt, malloc_trim), else False."""
+    global _libc
+    if _libc is None:
+        try:
+            import ctypes
+
+            lib = ctypes.CDLL(None)
+            _libc = lib if hasattr(lib, "malloc_trim") and hasattr(lib, "gnu_get_libc_version") else False
+        except OSError:  # no C library to ask: the default allocator
+            _libc = False
+    return _libc
+
+
+def return_freed_memory() -> None:
+    """Have the C allocator give large freed blocks back to the system at once (glibc
+    only, once per process; elsewhere nothing). The encoder's strips free and allocate
+    blocks of many sizes; without this the peak RSS follows what was freed, not what is held."""
+    global _heap_set
+    if not _heap_set and _glibc():
+        _glibc().mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+    _heap_set = True
+
+
+def trim_heap() -> None:
+    """Give the free pages of every heap arena back to the system (glibc's malloc_trim;
+    elsewhere nothing): small blocks freed between the ones kept stay in the arenas otherwise."""
+    if _glibc():
+        _glibc().malloc_trim(0)
+
 
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 
@@ -66,9 +109,10 @@ def parse_memory(value) -> int:
     return int(n)
 
 
-def group_segments(memory: int) -> int:
-    """The most segments a level group should hold."""
-    return max(int(GROUP_SHARE * memory), MIN_UNIT) // BYTES_PER_SEGMENT
+def strip_rows(memory: int, width: int) -> int:
+    """Cell rows of the padded grid a strip should hold, for an image ``width`` pixels wide
+    (padded grid rows are 2 width + 3 samples)."""
+    return max(1, max(int(STRIP_SHARE * memory), MIN_UNIT) // (BYTES_PER_STRIP_SAMPLE * (2 * width + 3)))
 
 
 def fit_batch_points(memory: int) -> int:

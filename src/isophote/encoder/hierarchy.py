@@ -74,6 +74,27 @@ def segment_table(iso: Isolines):
     return x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows
 
 
+LEVEL_BATCH = 1 << 20  # segments a call of region_levels takes (bounds its copies)
+
+
+def crossing_levels(iso: Isolines, labels: np.ndarray, m: int):
+    """region_levels over the isoline (not border) segments, in batches of loops of about
+    LEVEL_BATCH segments (the lowest and highest levels are the same in any order)."""
+    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
+    hi = np.full(m, -1, np.int64)
+    offs = iso.offsets
+    cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(LEVEL_BATCH, offs[-1], LEVEL_BATCH)),
+                                     [iso.n_loops]]))
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        o0, o1 = offs[a], offs[b]
+        keep = ~iso.border[o0:o1]
+        lev = np.repeat(iso.level[a:b].astype(np.int64), np.diff(offs[a : b + 1]))[keep]
+        l2, h2 = region_levels(labels, iso.band, iso.above[o0:o1][keep], iso.below[o0:o1][keep], lev, m)
+        np.minimum(lo, l2, out=lo)
+        np.maximum(hi, h2, out=hi)
+    return lo, hi
+
+
 def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     """Parents (geometrically, by winding numbers) and caps (on the band grid's regions).
 
@@ -84,27 +105,14 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     the levels of the crossings next to its samples.
     """
     c = iso.n_loops
-    area = loop_areas(iso)
-    x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows = segment_table(iso)
     lev_loop = iso.level.astype(np.int64)
-    # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
-    # crosses asks along a ray from the midpoint of one of its segments instead
-    parent, seen = sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows)
-    cand = np.flatnonzero(~iso.border & (y0 != y1) & ~seen[seg_loop])
-    has_q, first = np.unique(seg_loop[cand], return_index=True)
-    qs = cand[first]
-    if qs.size:
-        parent[has_q] = innermost_enclosing(
-            0.5 * (x0[qs] + x1[qs]), 0.5 * (y0[qs] + y1[qs]), has_q.astype(np.int64),
-            x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
-        )
-
+    # caps first, then the loops' geometry: the region labels and the segment table are not
+    # held at once (the same results in either order)
     labels, m = label_regions(iso.values, iso.band, np.asarray(levels, np.float64))
     # the levels of the crossings next to each region's samples
     # (border stretches are no isolines: the decoder takes no distance from them, so a region
     # that one level closes against the frame is a cap, whatever levels run along the frame)
-    iso_seg = ~iso.border
-    lo, hi = region_levels(labels, iso.band, iso.above[iso_seg], iso.below[iso_seg], lev_loop[seg_loop][iso_seg], m)
+    lo, hi = crossing_levels(iso, labels, m)
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
@@ -121,13 +129,28 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
         level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
         fitted = fit_cap_values(labels, iso.values, m, regs, level_value, single)
         cap_value = np.where(single, fitted, cap_value)
+    cap_idx = deep[regs].astype(np.int64)
+    del labels, deep, total, count, lo, hi
     # the cap is placed at the region's deepest sample: the annotation only names its region,
     # and a sample far from the region's edges keeps naming it when the fitted contours move
     # within their ribbons (an extremum on a plateau would be the plateau's first sample in
     # scan order, on its edge)
-    cap_idx = deep[regs].astype(np.int64)
     r, cc = np.divmod(cap_idx, wp)
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
+
+    area = loop_areas(iso)
+    x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows = segment_table(iso)
+    # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
+    # crosses asks along a ray from the midpoint of one of its segments instead
+    parent, seen = sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows)
+    cand = np.flatnonzero(~iso.border & (y0 != y1) & ~seen[seg_loop])
+    has_q, first = np.unique(seg_loop[cand], return_index=True)
+    qs = cand[first]
+    if qs.size:
+        parent[has_q] = innermost_enclosing(
+            0.5 * (x0[qs] + x1[qs]), 0.5 * (y0[qs] + y1[qs]), has_q.astype(np.int64),
+            x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+        )
     cap_contour = innermost_enclosing_rows(
         cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_idx), -1, np.int64),
         x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,

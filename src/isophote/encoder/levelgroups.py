@@ -1,5 +1,8 @@
 """Isolines level group by level group, so that marching holds one group's segments at a time.
 
+The encoder marches strips of rows instead (encoder/strips.py), which bound the same working
+set and the grid with it; it uses :func:`merge_groups` to put the strips' loops in order.
+
 The loops of one level depend on that level alone (its crossings, its saddle decisions:
 _kernels/marching.py), so marching a channel's levels in groups gives exactly the loops of
 one march over all of them. A group [a, b) is marched on the band grid clipped to [a, b]
@@ -127,10 +130,12 @@ def march_groups(vals, band, grid_eps, levels, min_tol, max_tol, max_segments) -
 
 
 def merge_groups(parts, hp, wp, nl) -> dict:
-    """The loops of all groups in order of their smallest start key, field by field: each
+    """The loops of all groups (or strips: a part may bring its loops' keys, "keys") in order
+    of their smallest start key, field by field: each
     group's points are scattered to their places in the output and dropped, so the merge
     holds the groups' results, one output field and one group's destinations at a time."""
-    keys = np.concatenate([loop_keys(p["below"], p["above"], p["offsets"], p["level"], hp, wp, nl)
+    keys = np.concatenate([p.pop("keys") if "keys" in p else
+                           loop_keys(p["below"], p["above"], p["offsets"], p["level"], hp, wp, nl)
                            for p in parts])
     order = np.argsort(keys, kind="stable")
     del keys

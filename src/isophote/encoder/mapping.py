@@ -146,12 +146,13 @@ def map_pixels(channel, eps, p=0.5, scale=64.0, cubic=CUBIC):
 
     Notes
     -----
-    Computed by a compiled kernel that fuses both passes and the padding;
+    Computed by a compiled kernel that fuses both passes and the padding (map_rows, which
+    also computes any range of rows alone);
     mapping_ref.map_pixels is its NumPy twin (same floating-point expressions, same result).
     """
     v = np.ascontiguousarray(channel, dtype=np.float64)
     e = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, dtype=np.float64), v.shape))
-    return _map_kernel(v, e, float(p), float(scale), float(cubic))
+    return map_rows(v, e, float(p), float(scale), float(cubic), 0, 2 * v.shape[0] + 1)
 
 
 # ---------------------------------------------------------------------------------------
@@ -191,58 +192,82 @@ def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale, cubic):
     return mid, 0.5 * (hi - lo) + cubic * (dle + dre) / 16.0
 
 
+# ---------------------------------------------------------------------------------------
+# Grid rows: one pass along x per pixel row; a midpoint row between pixel rows i and i + 1
+# reads rows i - 1 .. i + 2. map_rows computes any range of rows alone (the encoder marches
+# strips of rows: encoder/strips.py), the same bits as the whole grid's.
+# ---------------------------------------------------------------------------------------
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
-def _map_kernel(v, e, p, scale, cubic):
+def _x_pass(v, e, i, p, scale, cubic, g, ge):
+    """Row 2i + 1 of the grid (pixel row i and the midpoints along x) into g, ge (columns
+    1 .. 2w - 1; the ring columns are left)."""
+    w = v.shape[1]
+    for j in range(w):
+        g[2 * j + 1] = v[i, j]
+        ge[2 * j + 1] = e[i, j]
+    for j in range(w - 1):
+        d = v[i, j + 1] - v[i, j]
+        de = abs(e[i, j]) + abs(e[i, j + 1])
+        dl = 0.0
+        dle = 0.0
+        dr = 0.0
+        dre = 0.0
+        if j > 0:
+            dl = v[i, j] - v[i, j - 1]
+            dle = abs(e[i, j - 1]) + abs(e[i, j])
+        if j + 2 < w:
+            dr = v[i, j + 2] - v[i, j + 1]
+            dre = abs(e[i, j + 1]) + abs(e[i, j + 2])
+        g[2 * j + 2], ge[2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale, cubic)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def map_rows(v, e, p, scale, cubic, g0, g1):
+    """Rows [g0, g1) of map_pixels(v, e, ...)'s grid and errors, (g1 - g0, 2W + 1) each,
+    bit for bit: v, e are the whole (H, W) plane and its errors (float64, contiguous)."""
     h, w = v.shape
     w1 = 2 * w - 1
-    g = np.empty((2 * h + 1, 2 * w + 1))
-    ge = np.empty((2 * h + 1, 2 * w + 1))
-    # along x: rows 2i + 1 of the grid, columns 1 .. 2w - 1
-    for i in range(h):
-        r = 2 * i + 1
-        for j in range(w):
-            g[r, 2 * j + 1] = v[i, j]
-            ge[r, 2 * j + 1] = e[i, j]
-        for j in range(w - 1):
-            d = v[i, j + 1] - v[i, j]
-            de = abs(e[i, j]) + abs(e[i, j + 1])
-            dl = 0.0
-            dle = 0.0
-            dr = 0.0
-            dre = 0.0
-            if j > 0:
-                dl = v[i, j] - v[i, j - 1]
-                dle = abs(e[i, j - 1]) + abs(e[i, j])
-            if j + 2 < w:
-                dr = v[i, j + 2] - v[i, j + 1]
-                dre = abs(e[i, j + 1]) + abs(e[i, j + 2])
-            g[r, 2 * j + 2], ge[r, 2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale, cubic)
-    # along y: rows 2i + 2, between rows 2i + 1 and 2i + 3
-    for i in range(h - 1):
-        r = 2 * i + 1
-        for c in range(1, w1 + 1):
-            d = g[r + 2, c] - g[r, c]
-            de = abs(ge[r, c]) + abs(ge[r + 2, c])
-            dl = 0.0
-            dle = 0.0
-            dr = 0.0
-            dre = 0.0
-            if i > 0:
-                dl = g[r, c] - g[r - 2, c]
-                dle = abs(ge[r - 2, c]) + abs(ge[r, c])
-            if i + 2 < h:
-                dr = g[r + 4, c] - g[r + 2, c]
-                dre = abs(ge[r + 2, c]) + abs(ge[r + 4, c])
-            g[r + 1, c], ge[r + 1, c] = _midpoint(g[r, c], ge[r, c], d, de, dl, dle, dr, dre, p, scale, cubic)
-    # the border ring repeats its neighbours
-    for r in range(1, 2 * h):
-        g[r, 0] = g[r, 1]
-        ge[r, 0] = ge[r, 1]
-        g[r, w1 + 1] = g[r, w1]
-        ge[r, w1 + 1] = ge[r, w1]
-    for c in range(2 * w + 1):
-        g[0, c] = g[1, c]
-        ge[0, c] = ge[1, c]
-        g[2 * h, c] = g[2 * h - 1, c]
-        ge[2 * h, c] = ge[2 * h - 1, c]
+    n = g1 - g0
+    g = np.empty((n, 2 * w + 1))
+    ge = np.empty((n, 2 * w + 1))
+    if n <= 0:
+        return g, ge
+    lo_eff = min(max(g0, 1), 2 * h - 1)
+    hi_eff = min(max(g1 - 1, 1), 2 * h - 1)
+    i_lo = max(0, (lo_eff - 1) // 2 - 1)
+    i_hi = min(h, hi_eff // 2 + 2)
+    xs = np.empty((i_hi - i_lo, 2 * w + 1))
+    xe = np.empty((i_hi - i_lo, 2 * w + 1))
+    for i in range(i_lo, i_hi):
+        _x_pass(v, e, i, p, scale, cubic, xs[i - i_lo], xe[i - i_lo])
+    for k in range(n):
+        gr = min(max(g0 + k, 1), 2 * h - 1)  # the ring rows repeat their neighbours
+        if gr % 2 == 1:
+            a = (gr - 1) // 2 - i_lo
+            for c in range(1, w1 + 1):
+                g[k, c] = xs[a, c]
+                ge[k, c] = xe[a, c]
+        else:
+            i = gr // 2 - 1
+            a = i - i_lo
+            for c in range(1, w1 + 1):
+                d = xs[a + 1, c] - xs[a, c]
+                de = abs(xe[a, c]) + abs(xe[a + 1, c])
+                dl = 0.0
+                dle = 0.0
+                dr = 0.0
+                dre = 0.0
+                if i > 0:
+                    dl = xs[a, c] - xs[a - 1, c]
+                    dle = abs(xe[a - 1, c]) + abs(xe[a, c])
+                if i + 2 < h:
+                    dr = xs[a + 2, c] - xs[a + 1, c]
+                    dre = abs(xe[a + 1, c]) + abs(xe[a + 2, c])
+                g[k, c], ge[k, c] = _midpoint(xs[a, c], xe[a, c], d, de, dl, dle, dr, dre, p, scale, cubic)
+        g[k, 0] = g[k, 1]
+        ge[k, 0] = ge[k, 1]
+        g[k, w1 + 1] = g[k, w1]
+        ge[k, w1 + 1] = ge[k, w1]
     return g, ge

@@ -30,7 +30,7 @@ def joint_reach(points, below, above, band, level, loop, tol, wp, frac):
     # the candidates, chained per sample (head, nxt; int32 keeps the per-sample array small)
     head = np.full(size, -1, np.int32)
     nxt = np.full(n, -1, np.int32)
-    near = np.full(n, -1, np.int64)
+    near = np.full(n, -1, np.int32)  # a sample index: the grid of MAX_PIXELS has under 2**31
     dist = np.empty(n)
     for k in range(n - 1, -1, -1):  # chains in point order
         lo = below[k]

@@ -95,20 +95,28 @@ def _march_cells(vals, band, levels):
     (r (wp - 1) + c), level, start and end edge; rec[s] = (free for the caller; start key;
     below sample; above sample; 2 level + border flag) and t. Segments of cell k are
     cell_start[k]:cell_start[k+1]."""
-    hp, wp = vals.shape
+    return _march_cells_rows(vals, band, levels, 0, vals.shape[0], 0, vals.shape[0] - 1)
+
+
+@njit(cache=True, nogil=True)
+def _march_cells_rows(vals, band, levels, w0, hp, r0, r1):
+    """:func:`_march_cells` for the cells of padded rows [r0, r1) of a grid of hp rows, of
+    which vals and band hold the rows from w0 on (a strip and its margin): edge ids, sample
+    indices and border flags are the whole grid's; cells are numbered (r - r0) (wp - 1) + c."""
+    wp = vals.shape[1]
     nl = levels.shape[0]
-    ncell = (hp - 1) * (wp - 1)
+    ncell = (r1 - r0) * (wp - 1)
     # count first: a cell has one segment per level between its lowest and highest corner
     # band, and a second one for each level that makes it a saddle
     cell_start = np.empty(ncell + 1, np.int64)
     cap = 0
-    for r in range(hp - 1):
+    for r in range(r0, r1):
         for c in range(wp - 1):
-            cell_start[r * (wp - 1) + c] = cap
-            b0 = band[r, c]
-            b1 = band[r, c + 1]
-            b2 = band[r + 1, c + 1]
-            b3 = band[r + 1, c]
+            cell_start[(r - r0) * (wp - 1) + c] = cap
+            b0 = band[r - w0, c]
+            b1 = band[r - w0, c + 1]
+            b2 = band[r - w0 + 1, c + 1]
+            b3 = band[r - w0 + 1, c]
             cap += (max(max(b0, b1), max(b2, b3)) - min(min(b0, b1), min(b2, b3))
                     + max(0, min(b0, b2) - max(b1, b3)) + max(0, min(b1, b3) - max(b0, b2)))
     cell_start[ncell] = cap
@@ -127,23 +135,23 @@ def _march_cells(vals, band, levels):
     segs_a = np.empty(2, np.int64)
     segs_b = np.empty(2, np.int64)
     n = 0
-    for r in range(hp - 1):
+    for r in range(r0, r1):
         for c in range(wp - 1):
-            b0 = band[r, c]
-            b1 = band[r, c + 1]
-            b2 = band[r + 1, c + 1]
-            b3 = band[r + 1, c]
+            b0 = band[r - w0, c]
+            b1 = band[r - w0, c + 1]
+            b2 = band[r - w0 + 1, c + 1]
+            b3 = band[r - w0 + 1, c]
             bmin = min(min(b0, b1), min(b2, b3))
             bmax = max(max(b0, b1), max(b2, b3))
             if bmin == bmax:
                 continue
-            cell = r * (wp - 1) + c
+            cell = (r - r0) * (wp - 1) + c
             anypad = r == 0 or c == 0 or r + 1 == hp - 1 or c + 1 == wp - 1
             for k in range(4):
                 rr = r + _CDR[k]
                 cc = c + _CDC[k]
-                cv[k] = vals[rr, cc]
-                cb[k] = band[rr, cc]
+                cv[k] = vals[rr - w0, cc]
+                cb[k] = band[rr - w0, cc]
                 cidx[k] = rr * wp + cc
                 cpad[k] = rr == 0 or cc == 0 or rr == hp - 1 or cc == wp - 1
             for l in range(bmin, bmax):
@@ -294,12 +302,27 @@ def _link(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp):
     # The links go to a compact array of their own: walking the loops chases them one
     # dependent load after another, in an order that jumps a row of cells at every
     # vertical step, so the fewer bytes they span the fewer cache misses.
-    nxt = np.empty(n, np.int64)
+    nxt, _, ok = link_rows(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp, 0, hp - 1)
+    for s in range(n):
+        if nxt[s] == -2:
+            nxt[s] = -1
+            ok = False
+    return nxt, ok
+
+
+@njit(cache=True, nogil=True)
+def link_rows(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp, r0, r1):
+    """:func:`_link` for the segments of the cells of padded rows [r0, r1) (cells numbered
+    from r0, as _march_cells_rows does): (nxt, has_pred, ok), nxt -2 where the next cell lies
+    outside those rows, has_pred where a segment leads to it."""
+    nxt = np.full(n, -1, np.int64)
+    has_pred = np.zeros(n, np.bool_)
     ok = True
     for s in range(n):
         cell = s_cell[s]
         r = cell // (wp - 1)
         c = cell - r * (wp - 1)
+        r += r0
         eb = s_eb[s]
         if eb == 0:
             r -= 1
@@ -309,20 +332,23 @@ def _link(n, s_cell, s_lev, s_ea, s_eb, cell_start, hp, wp):
             r += 1
         else:
             c -= 1
-        nxt[s] = -1
-        if r < 0 or c < 0 or r >= hp - 1 or c >= wp - 1:
+        if r < r0 or r >= r1:
+            nxt[s] = -2
+            continue
+        if c < 0 or c >= wp - 1:
             ok = False
             break
-        other = r * (wp - 1) + c
+        other = (r - r0) * (wp - 1) + c
         want = (eb + 2) % 4
         for s2 in range(cell_start[other], cell_start[other + 1]):
             if s_lev[s2] == s_lev[s] and s_ea[s2] == want:
                 nxt[s] = s2
+                has_pred[s2] = True
                 break
         if nxt[s] < 0:
             ok = False
             break
-    return nxt, ok
+    return nxt, has_pred, ok
 
 
 @njit(cache=True, nogil=True)

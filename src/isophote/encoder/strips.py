@@ -1,0 +1,202 @@
+"""Isolines strip by strip (issue 22, docs/streaming.md): the channel's grid never exists whole
+in the marching's working set.
+
+The Carrato grid of a strip of rows is computed from the plane (mapping.map_rows, the whole
+grid's rows to the bit) with a margin of one padded row above and below, and marched
+(_kernels/strips.py). Loops that close inside the strip come out rotated and keyed as in one
+march of the whole grid; open pieces (their ends on the strip's top or bottom edge) are
+carried and joined across strips by key, in strip order: after strip k every open chain has
+both ends on strip k's lower edge, and the next strip's pieces that start (end) there
+continue (precede) them. A chain that closes is rotated to its smallest start key. The
+loops of all strips are put in the order of one march (by that key) at the end, so the
+Isolines are the same whatever the strip height (tests/encoder/test_strips.py).
+
+What is held whole: the padded values and bands (the hierarchy and the joint reaches read
+them) and the loops' per-point results (points, tolerances, samples, border flags). A
+strip's working set (its window of the grid, the cell table, links, per-point temporaries)
+is bounded by its height, which the budget sets (encoder/budget.py: strip_rows).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from ._kernels.strips import march_strip
+from .isolines import Isolines
+from .levelgroups import merge_groups
+from .mapping import map_rows
+from .ribbon import tolerances
+from .budget import trim_heap
+
+FIELDS = ("points", "border", "below", "above", "tol")
+
+
+def grid_window(v, e, levels, opts, w0, w1, hp, wp):
+    """Padded values, bands and sample errors of padded rows [w0, w1) (the padding ring is
+    value 0, band 0, error 0)."""
+    g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
+    g, ge = map_rows(v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1)
+    n = w1 - w0
+    wv = np.zeros((n, wp))
+    we = np.zeros((n, wp))
+    a = g0 + 1 - w0
+    wv[a : a + g.shape[0], 1:-1] = g
+    we[a : a + g.shape[0], 1:-1] = ge
+    del g, ge
+    wb = np.searchsorted(levels, wv, side="right").astype(np.int16)  # pad_bands' rule
+    wb[: a] = 0
+    wb[a + (g1 - g0):] = 0
+    wb[:, 0] = 0
+    wb[:, -1] = 0
+    return wv, wb, we
+
+
+class _Chain:
+    """An open polyline carried between strips: its first segment's start key, the key its
+    last segment ends on, its level, whether it has an isoline segment, and its pieces'
+    per-point arrays in order."""
+
+    __slots__ = ("start", "end", "level", "inner", "frags")
+
+    def __init__(self, start, end, level, inner, frags):
+        self.start, self.end, self.level, self.inner, self.frags = start, end, level, inner, frags
+
+
+def _march(v, e, levels, opts, hp, wp, r0, r1):
+    """One strip: its window, its loops (a part for merge_groups) and its pieces."""
+    w0, w1 = max(r0 - 1, 0), min(r1 + 2, hp)
+    wv, wb, we = grid_window(v, e, levels, opts, w0, w1, hp, wp)
+    (ok, n_kept, offsets, level, key, end_key, inner, points, border, below, above, t, eps_b,
+     eps_a, grad_b, grad_a, skey, frame_levels) = march_strip(wv, wb, we, w0, hp, r0, r1, levels)
+    del we
+    if not ok:
+        raise RuntimeError("marching squares produced an open contour")  # a bug, never input
+    tol = tolerances(eps_b, eps_a, grad_b, grad_a, t, opts.min_tolerance, opts.max_tolerance)
+    del t, eps_b, eps_a, grad_b, grad_a
+    m = int(offsets[n_kept])
+    loops = dict(points=points[:m], border=border[:m], below=below[:m], above=above[:m], tol=tol[:m],
+                 level=level[:n_kept], offsets=offsets[: n_kept + 1], keys=key[:n_kept])
+    pieces = []
+    for i in range(n_kept, level.shape[0]):
+        o0, o1 = int(offsets[i]), int(offsets[i + 1])
+        frag = dict(points=points[o0:o1].copy(), border=border[o0:o1].copy(), below=below[o0:o1].copy(),
+                    above=above[o0:o1].copy(), tol=tol[o0:o1].copy(), skey=skey[o0:o1].copy())
+        pieces.append(_Chain(int(key[i]), int(end_key[i]), int(level[i]), bool(inner[i]), [frag]))
+    rows = (r0, r1 + 1 if r1 == hp - 1 else r1)
+    return rows, wv[rows[0] - w0 : rows[1] - w0], wb[rows[0] - w0 : rows[1] - w0], loops, pieces, frame_levels
+
+
+def _join(carried: dict, pieces: list, closed: list, frame: list) -> dict:
+    """The carried chains (by start key) continued by one strip's pieces: the chains still
+    open (by start key); the loops they close go to ``closed`` as (key, level, fields),
+    frame loops' levels to ``frame``."""
+    nodes = list(carried.values()) + pieces
+    by_start = {c.start: c for c in nodes}
+    succ = {id(c): by_start.get(c.end) for c in nodes}
+    has_pred = {id(s) for s in succ.values() if s is not None}
+    done = set()
+    out = {}
+    for c in nodes:
+        if id(c) in has_pred:
+            continue
+        path = [c]
+        done.add(id(c))
+        while succ[id(path[-1])] is not None:
+            path.append(succ[id(path[-1])])
+            done.add(id(path[-1]))
+        out[c.start] = _Chain(c.start, path[-1].end, c.level, any(p.inner for p in path),
+                              [f for p in path for f in p.frags])
+    for c in nodes:
+        if id(c) in done:
+            continue
+        path = [c]
+        done.add(id(c))
+        x = succ[id(c)]
+        while x is not c:
+            if x is None or id(x) in done:
+                raise RuntimeError("marching squares produced an open contour")  # a bug
+            path.append(x)
+            done.add(id(x))
+            x = succ[id(x)]
+        if not any(p.inner for p in path):
+            frame.append(c.level)
+            continue
+        frags = [f for p in path for f in p.frags]
+        skey = np.concatenate([f["skey"] for f in frags])
+        at = int(np.argmin(skey))
+        fields = {}
+        for name in FIELDS:
+            a = np.concatenate([f[name] for f in frags])
+            fields[name] = np.roll(a, -at, axis=0) if at else a
+        closed.append((int(skey[at]), c.level, fields))
+    return out
+
+
+def _closed_part(closed: list) -> dict | None:
+    """The loops joined in one strip as a part for merge_groups."""
+    if not closed:
+        return None
+    lengths = np.array([f["tol"].shape[0] for _, _, f in closed], np.int64)
+    part = {name: np.concatenate([f[name] for _, _, f in closed]) for name in FIELDS}
+    part["level"] = np.array([lv for _, lv, _ in closed], np.int32)
+    part["offsets"] = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    part["keys"] = np.array([k for k, _, _ in closed], np.int64)
+    return part
+
+
+def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Isolines:
+    """The isolines of the channel ``plane`` (its sample errors ``eps``, a float or a plane),
+    marched in strips of ``rows`` cell rows of the padded grid, ``workers`` strips at a
+    time: the Isolines of encoder.isolines.find_isolines on map_pixels' grid, to the bit."""
+    levels = np.ascontiguousarray(levels, np.float64)
+    v = np.ascontiguousarray(plane, np.float64)
+    e = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, np.float64), v.shape))
+    h, w = v.shape
+    hp, wp = 2 * h + 3, 2 * w + 3
+    nl = levels.shape[0]
+    rows = max(int(rows), 1)
+    vals = np.zeros((hp, wp))
+    band = np.zeros((hp, wp), np.int16)
+    bounds = [(r0, min(r0 + rows, hp - 1)) for r0 in range(0, hp - 1, rows)]
+    parts, frame, carried = [], [], {}
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        pending = deque()
+        todo = iter(bounds)
+        for _ in range(max(1, workers)):
+            b = next(todo, None)
+            if b is not None:
+                pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b))
+        while pending:
+            (ra, rb), wv, wb, loops, pieces, frame_levels = pending.popleft().result()
+            b = next(todo, None)
+            if b is not None:
+                pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b))
+            vals[ra:rb] = wv
+            band[ra:rb] = wb
+            del wv, wb
+            frame.extend(frame_levels.tolist())
+            if loops["level"].shape[0]:
+                parts.append(loops)
+            closed = []
+            carried = _join(carried, pieces, closed, frame)
+            part = _closed_part(closed)
+            if part is not None:
+                parts.append(part)
+            del loops, pieces, closed, part
+            trim_heap()  # the strip's freed temporaries go back (encoder/budget.py)
+    if carried:
+        raise RuntimeError("marching squares produced an open contour")  # a bug, never input
+    frame_levels = np.array(sorted(frame), np.int64)
+    base = frame_levels.shape[0]
+    if base and not np.array_equal(frame_levels, np.arange(base)):
+        raise RuntimeError("frame loops are not the lowest levels")  # a bug, never input
+    if not parts:
+        merged = dict(points=np.zeros((0, 2)), border=np.zeros(0, bool), below=np.zeros(0, np.int64),
+                      above=np.zeros(0, np.int64), tol=np.zeros(0), level=np.zeros(0, np.int32),
+                      offsets=np.zeros(1, np.int64))
+    else:
+        merged = merge_groups(parts, hp, wp, nl)
+    return Isolines(band=band, values=vals, base_band=base, **merged)
