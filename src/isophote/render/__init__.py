@@ -28,7 +28,7 @@ from ..colour import YUV_TO_RGB, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
-from ..geometry import segments
+from ..geometry import segment_starts
 from .blocks import ChannelLevel, make_level, split
 from .levels import auto_supersample, reduction_r
 from .prepare import prepared
@@ -201,17 +201,20 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
     gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
     smooth = opts.fill != "linear"
 
+    rows = (vp.ky, vp.offy)  # the sample rows: segments that cross none of them nor the nodes' are culled
+
     def make_level_state():
-        segs, border = prep.get(prep.edges, ch.name, lambda: segments(ch)) if prep is not None else segments(ch)
+        first = prep.get(prep.edges, ch.name, lambda: segment_starts(ch.offsets)[0]) if prep is not None \
+            else segment_starts(ch.offsets)[0]
         if level.block:
             with _REGIONS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
-                return ChannelLevel(vi, ch, segs, border, tol, level)
-        return ChannelLevel(vi, ch, segs, border, tol, level)
+                return ChannelLevel(vi, ch, first, tol, level, rows)
+        return ChannelLevel(vi, ch, first, tol, level, rows)
 
     if prep is None:
         cl = make_level_state()
         return cl, BlockCache(cl, opts.distance, smooth, gain, 1 << 62)
-    cl = prep.get(prep.levels, (ch.name, tol, level), make_level_state)
+    cl = prep.get(prep.levels, (ch.name, tol, level, rows), make_level_state)
     cache = prep.get(prep.caches, (ch.name, tol, level, opts.distance, smooth, gain),
                      lambda: BlockCache(cl, opts.distance, smooth, gain, prep.field_bytes // max(1, len(vi.channels))))
     return cl, cache

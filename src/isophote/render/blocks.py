@@ -32,8 +32,8 @@ from ._kernels.diffuse import band_widths, evaluate, label_nodes, offsets, propa
 from ._kernels.raster import rasterise
 from ._kernels.regions import cap_values, local_cap_values
 from ._kernels.sharpen import correction
-from ..geometry import flatten
 from .distance import MAX_SWEEPS, MODES, NodeField
+from .segment_index import SegmentIndex
 
 SINGLE_NODES = 2_500_000  # a level this small is one window (every corpus photograph up to 3x)
 BLOCK = 256  # nodes a side of a block at or below 1x; smaller above (block_size)
@@ -88,112 +88,37 @@ def make_level(vi, r: float, zoom: float, n_segments: int = 0) -> Level:
     return Level(r, nr, nc, block)
 
 
-class Buckets:
-    """Indices of edges by the bands of ``size`` nodes their extent [lo, hi] reaches (widened
-    by a node), in their original order within each band."""
-
-    def __init__(self, lo, hi, size: int, n: int):
-        first = np.clip(np.floor((lo - 1.0) / size), 0, n - 1).astype(np.int64)
-        last = np.clip(np.floor((hi + 1.0) / size), 0, n - 1).astype(np.int64)
-        count = np.maximum(last - first + 1, 0)
-        edge = np.repeat(np.arange(len(lo)), count)
-        bucket = np.repeat(first - np.cumsum(count) + count, count) + np.arange(len(edge))
-        order = np.argsort(bucket, kind="stable")
-        self.index = edge[order]
-        self.starts = np.searchsorted(bucket[order], np.arange(n + 1))
-        self.n = n
-
-    def of(self, b0: int, b1: int) -> np.ndarray:
-        """Edges reaching buckets b0..b1 (inclusive), each once, in original order."""
-        b0, b1 = max(b0, 0), min(b1, self.n - 1)
-        idx = self.index[self.starts[b0]:self.starts[b1 + 1]]
-        if b0 == b1 or len(idx) == 0:
-            return idx  # one bucket: ascending already
-        lo = int(idx.min())
-        mark = np.zeros(int(idx.max()) - lo + 1, np.bool_)
-        mark[idx - lo] = True
-        return np.flatnonzero(mark) + lo
-
-
-class Buckets2D:
-    """Indices of segments by the blocks (row, column) their bounding box reaches (widened
-    by a node), in their original order within each block."""
-
-    def __init__(self, x_lo, x_hi, y_lo, y_hi, size: int, nbr: int, nbc: int):
-        r0 = np.clip(np.floor((y_lo - 1.0) / size), 0, nbr - 1).astype(np.int64)
-        r1 = np.clip(np.floor((y_hi + 1.0) / size), 0, nbr - 1).astype(np.int64)
-        c0 = np.clip(np.floor((x_lo - 1.0) / size), 0, nbc - 1).astype(np.int64)
-        c1 = np.clip(np.floor((x_hi + 1.0) / size), 0, nbc - 1).astype(np.int64)
-        nrow, ncol = r1 - r0 + 1, c1 - c0 + 1
-        count = nrow * ncol
-        seg = np.repeat(np.arange(len(r0)), count)
-        k = np.arange(len(seg)) - np.repeat(np.cumsum(count) - count, count)  # rank within its segment
-        row = r0[seg] + k // ncol[seg]
-        col = c0[seg] + k % ncol[seg]
-        bucket = row * nbc + col
-        order = np.argsort(bucket, kind="stable")
-        self.index = seg[order]
-        self.starts = np.searchsorted(bucket[order], np.arange(nbr * nbc + 1))
-        self.nbr, self.nbc = nbr, nbc
-
-    def of(self, b0: int, b1: int, c0: int, c1: int) -> np.ndarray:
-        """Segments reaching blocks rows b0..b1 x columns c0..c1, each once, ascending."""
-        b0, b1, c0, c1 = max(b0, 0), min(b1, self.nbr - 1), max(c0, 0), min(c1, self.nbc - 1)
-        parts = [self.index[self.starts[b * self.nbc + c0]:self.starts[b * self.nbc + c1 + 1]] for b in range(b0, b1 + 1)]
-        idx = np.concatenate(parts) if parts else np.zeros(0, np.int64)
-        if len(idx) == 0:
-            return idx
-        lo = int(idx.min())
-        mark = np.zeros(int(idx.max()) - lo + 1, np.bool_)
-        mark[idx - lo] = True
-        return np.flatnonzero(mark) + lo
-
-
 class ChannelLevel:
-    """One channel at one level: its segments, flattened (at ``tol``) a window at a time
-    from an index of their bounding boxes by block rows and columns (all at once on a
-    one-window level), and the canvas-wide regions (blocked levels only). A segment's edges
-    do not depend on which others are flattened with it, nor a window's bands and crossings
-    on the edges that miss it."""
+    """One channel at one level: its segments indexed by the level's blocks and culled for
+    its lattices (segment_index.py), flattened (at ``tol``) a window or a strip at a time (all
+    at once on a one-window level), and the canvas-wide regions (blocked levels only). A
+    segment's edges do not depend on which others are flattened with it, nor a window's
+    bands and crossings on the edges that miss it."""
 
-    def __init__(self, vi, ch, segs, border, tol: float, level: Level):
+    def __init__(self, vi, ch, first, tol: float, level: Level, sample_rows=(0.0, 0.0)):
         self.ch, self.level, self.tol = ch, level, tol
-        self.segs, self.border = segs, border
         self.glabels = self.gcapv = None
         self.edges = None
-        if not level.block:
-            self.edges = flatten(segs, border, tol)
-            return
-        r = level.r
         nbr, nbc = level.blocks()
-        xs, ys = segs[:, :, 0], segs[:, :, 1]
-        # bounding boxes in node units (the curve lies in its control points' hull)
-        self.box = np.stack([xs.min(axis=1) * r, xs.max(axis=1) * r, ys.min(axis=1) * r, ys.max(axis=1) * r]).astype(np.float32)
-        del xs, ys
-        self.rows = Buckets(self.box[2], self.box[3], level.block, nbr)
-        self.grid = Buckets2D(self.box[0], self.box[1], self.box[2], self.box[3], level.block, nbr, nbc)
+        self.index = SegmentIndex(ch.points, first, ch.border, level.r, level.block, nbr, nbc, sample_rows)
+        if not level.block:
+            self.edges = self.index.edges(None, tol)
+            return
         self._regions()
 
     def window_segments(self, i0: int, j0: int, n: int, m: int) -> np.ndarray:
         """Segments whose box reaches the window's nodes (widened by a node)."""
-        B = self.level.block
-        idx = self.grid.of(i0 // B, (i0 + n - 1) // B, j0 // B, (j0 + m - 1) // B)
-        bx = self.box[:, idx]
-        keep = (bx[1] >= j0 - 1) & (bx[0] <= j0 + m + 1) & (bx[3] >= i0 - 1) & (bx[2] <= i0 + n + 1)
-        return idx[keep]
+        return self.index.window(i0, j0, n, m)
 
     def strip_segments(self, y_lo: float, y_hi: float) -> np.ndarray:
         """Segments whose box reaches node rows y_lo..y_hi (widened by a node)."""
-        B = self.level.block
-        idx = self.rows.of(int(y_lo // B), int(y_hi // B))
-        bx = self.box[:, idx]
-        return idx[(bx[3] >= y_lo - 1) & (bx[2] <= y_hi + 1)]
+        return self.index.rows(y_lo, y_hi)
 
     def edges_of(self, idx):
         """Edges of the segments idx (ascending), in source pixels."""
         if idx is None:
             return self.edges
-        return flatten(self.segs[idx], self.border[idx], self.tol)
+        return self.index.edges(idx, self.tol)
 
     def _regions(self):
         """Bands of the whole level, a block row at a time, then their regions and cap values."""

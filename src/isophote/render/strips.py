@@ -15,10 +15,37 @@ import numpy as np
 
 from ..model import apply_tone_curve
 from ._kernels.raster import rasterise
-from .blocks import WINDOW_BYTES, Buckets, evaluate_piece, split
+from .blocks import WINDOW_BYTES, evaluate_piece, split
 
 STRIP_ROWS = 128  # output rows per strip of a one-window render
 SAMPLE_BUCKET = 64  # sample rows per bucket of the samples' edge index
+
+
+class Buckets:
+    """Indices of edges by the bands of ``size`` nodes their extent [lo, hi] reaches (widened
+    by a node), in their original order within each band."""
+
+    def __init__(self, lo, hi, size: int, n: int):
+        first = np.clip(np.floor((lo - 1.0) / size), 0, n - 1).astype(np.int64)
+        last = np.clip(np.floor((hi + 1.0) / size), 0, n - 1).astype(np.int64)
+        count = np.maximum(last - first + 1, 0)
+        edge = np.repeat(np.arange(len(lo)), count)
+        bucket = np.repeat(first - np.cumsum(count) + count, count) + np.arange(len(edge))
+        order = np.argsort(bucket, kind="stable")
+        self.index = edge[order]
+        self.starts = np.searchsorted(bucket[order], np.arange(n + 1))
+        self.n = n
+
+    def of(self, b0: int, b1: int) -> np.ndarray:
+        """Edges reaching buckets b0..b1 (inclusive), each once, in original order."""
+        b0, b1 = max(b0, 0), min(b1, self.n - 1)
+        idx = self.index[self.starts[b0]:self.starts[b1 + 1]]
+        if b0 == b1 or len(idx) == 0:
+            return idx  # one bucket: ascending already
+        lo = int(idx.min())
+        mark = np.zeros(int(idx.max()) - lo + 1, np.bool_)
+        mark[idx - lo] = True
+        return np.flatnonzero(mark) + lo
 
 
 class BlockCache:

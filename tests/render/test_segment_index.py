@@ -1,0 +1,76 @@
+"""The level's segment index (render/segment_index.py): its kernels against their NumPy twins,
+and culling: a culled segment crosses no node row or column and no sample row, so the bands
+and crossings of the kept edges equal those of all the edges."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from isophote.geometry import flatten, flatten_selected
+from isophote.render._kernels import index as K
+from isophote.render._kernels import index_ref as R
+from isophote.render._kernels.raster import rasterise
+from kernel_inputs import SEEDS
+
+
+def _chains(rng, n=300, span=60.0, size=3.0):
+    """n random cubic segments (most smaller than a node at the levels below), their control
+    points on the file's 1/64 grid as stored, as (points, first)."""
+    p0 = rng.uniform(0, span, (n, 1, 2))
+    segs = p0 + rng.uniform(-size, size, (n, 4, 2)) * rng.uniform(0.05, 1.0, (n, 1, 1))
+    segs = np.round(segs * 64) / 64
+    return segs.reshape(-1, 2), np.arange(n) * 4, segs
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_index_kernels_match_their_twins(seed):
+    rng = np.random.default_rng(900 + seed)
+    points, first, _ = _chains(rng)
+    for r, cull, sky, soff in [(1.0, False, 0.0, 0.0), (0.25, True, 0.0, 0.0), (0.125, True, 0.25, 0.3)]:
+        ids, box = K.segment_boxes(points, first, r, cull, sky, soff)
+        ids_r, box_r = R.segment_boxes(points, first, r, cull, sky, soff)
+        assert np.array_equal(ids, ids_r) and np.array_equal(box, box_r) and box.dtype == np.float32
+        size, nbr, nbc = 4, int(np.ceil(64 * r / 4)) + 1, int(np.ceil(64 * r / 4)) + 2
+        index, starts = K.grid_index(box, size, nbr, nbc)
+        index_r, starts_r = R.grid_index(box, size, nbr, nbc)
+        assert np.array_equal(index, index_r) and np.array_equal(starts, starts_r)
+        for _ in range(5):
+            b0, c0 = rng.integers(0, nbr), rng.integers(0, nbc)
+            b1, c1 = rng.integers(b0, nbr), rng.integers(c0, nbc)
+            lims = (float(c0 * size - 1), float((c1 + 1) * size + 1), float(b0 * size - 1), float((b1 + 1) * size + 1))
+            got = K.select(index, starts, nbc, b0, b1, c0, c1, box, *lims)
+            assert np.array_equal(got, R.select(index, starts, nbc, b0, b1, c0, c1, box, *lims))
+            assert np.all(np.diff(got) > 0)
+
+
+def test_flatten_selected_is_flatten_of_those_segments():
+    rng = np.random.default_rng(5)
+    points, first, segs = _chains(rng, 50)
+    border = rng.random(50) < 0.2
+    ids = np.sort(rng.choice(50, 20, replace=False))
+    for a, b in zip(flatten_selected(points, first, border, ids, 0.05), flatten(segs[ids], border[ids], 0.05)):
+        assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("r", [1.0, 0.25, 0.0625])
+def test_culled_segments_change_no_band_or_crossing(r):
+    """Rasterised on the node rows and columns and on the sample rows, the kept segments'
+    edges give the same bands and crossings as all of them, while most are culled."""
+    rng = np.random.default_rng(11)
+    points, first, segs = _chains(rng, 2000, span=64.0, size=1.5)
+    border = rng.random(len(first)) < 0.1
+    sky = 2 * r  # the samples of a reduction: two a pixel side
+    ids, _ = K.segment_boxes(points, first, r, True, sky, 0.0)
+    if r < 1:
+        assert len(ids) < 0.8 * len(first)
+    for scale, transposed in [(r, False), (r, True), (sky, False)]:
+        res = []
+        for sel in (np.arange(len(first)), ids):
+            x0, y0, x1, y1, src = flatten_selected(points, first, border, sel, 0.01)
+            if transposed:
+                x0, y0, x1, y1 = y0, x0, y1, x1
+            m = int(np.ceil(64 * scale)) + 1
+            res.append(rasterise(x0 * scale, y0 * scale, x1 * scale, y1 * scale, src, 0, 0, m, m, True, transposed))
+        for a, b in zip(*res):
+            assert np.array_equal(a, b)
