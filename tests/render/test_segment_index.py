@@ -74,3 +74,55 @@ def test_culled_segments_change_no_band_or_crossing(r):
             res.append(rasterise(x0 * scale, y0 * scale, x1 * scale, y1 * scale, src, 0, 0, m, m, True, transposed))
         for a, b in zip(*res):
             assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_rasterise_chains_is_rasterise_of_the_flattened_edges(seed):
+    """The fused kernel gives the band and every crossing array of flattening then
+    rasterising, bit for bit, in both orientations; its band matches the NumPy twin."""
+    from isophote.render._kernels.raster import rasterise_chains
+    from isophote.render._kernels.raster_ref import rasterise_chains as rasterise_chains_ref
+
+    rng = np.random.default_rng(700 + seed)
+    points, first, _ = _chains(rng, 80, span=30.0, size=4.0)
+    border = rng.random(80) < 0.2
+    ids = np.sort(rng.choice(80, 50, replace=False))
+    tol = 0.05
+    for kx, ox, ky, oy, swap, transposed in [(1.0, 0.0, 1.0, 0.0, False, False), (0.5, 3.0, 0.5, 2.0, True, True),
+                                             (1.5, 0.25, 1.5, 0.75, False, False)]:
+        x0, y0, x1, y1, src = flatten_selected(points, first, border, ids, tol)
+        x0, x1, y0, y1 = x0 * kx - ox, x1 * kx - ox, y0 * ky - oy, y1 * ky - oy
+        if swap:
+            x0, y0, x1, y1 = y0, x0, y1, x1
+        for row0, col0, n, m in [(0, 0, 30, 40), (4, -3, 12, 17)]:
+            a = rasterise(x0, y0, x1, y1, src, row0, col0, n, m, True, transposed)
+            b = rasterise_chains(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0, col0, n, m, True,
+                                 transposed)
+            for u, v in zip(a, b):
+                assert np.array_equal(u, v)
+            ref = rasterise_chains_ref(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0, col0, n, m,
+                                       transposed)
+            assert np.array_equal(b[0], ref)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_row_windings_match_the_band_left_of_each_bin(seed):
+    """row_windings against its twin (the band of whole rows read at each bin's left), and a
+    crop's band rebuilt from them and the edges right of its bin equals the whole row's."""
+    from isophote.render._kernels.raster import rasterise_chains, row_windings
+    from isophote.render._kernels.raster_ref import row_windings as row_windings_ref
+
+    rng = np.random.default_rng(800 + seed)
+    points, first, _ = _chains(rng, 120, span=40.0, size=5.0)
+    border = rng.random(120) < 0.2
+    ids = np.arange(120)
+    kx, ox, ky, oy, step = 1.5, 0.0, 1.5, 0.0, 8
+    w = row_windings(points, first, border, ids, 0.05, kx, ox, ky, oy, 2, 40, step, 9)
+    assert np.array_equal(w, row_windings_ref(points, first, border, ids, 0.05, kx, ox, ky, oy, 2, 40, step, 9))
+    full = rasterise_chains(points, first, border, ids, 0.05, kx, ox, ky, oy, False, 2, 0, 40, 64, False)[0]
+    for col0, m in [(0, 10), (13, 20), (40, 24)]:
+        c = col0 // step
+        part = rasterise_chains(points, first, border, ids, 0.05, kx, ox, ky, oy, False, 2, c * step - 1, 40,
+                                col0 + m - c * step + 1, False)[0]
+        got = w[:, c:c + 1] + part[:, col0 - c * step + 1:] - part[:, :1]
+        assert np.array_equal(got, full[:, col0:col0 + m])

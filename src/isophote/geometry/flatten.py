@@ -28,26 +28,45 @@ def flatten_selected(points: np.ndarray, first: np.ndarray, border: np.ndarray, 
     return _flatten_kernel(points, first, np.ascontiguousarray(ids, np.int64), border, float(tol), MAX_STEPS)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def steps(points, f, is_border, tol, max_steps):
+    """Edges of the cubic points[f:f + 4] within tol (Wang's formula; 1 for a border segment)."""
+    if is_border:
+        return 1
+    ax = points[f, 0] - 2.0 * points[f + 1, 0] + points[f + 2, 0]
+    ay = points[f, 1] - 2.0 * points[f + 1, 1] + points[f + 2, 1]
+    bx = points[f + 1, 0] - 2.0 * points[f + 2, 0] + points[f + 3, 0]
+    by = points[f + 1, 1] - 2.0 * points[f + 2, 1] + points[f + 3, 1]
+    dd = max(np.sqrt(ax * ax + ay * ay), np.sqrt(bx * bx + by * by))
+    n = int(np.ceil(np.sqrt(0.75 * dd / tol)))
+    return min(max(n, 1), max_steps)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def point(points, f, i, n):
+    """The end of edge i (1..n) of n of the cubic points[f:f + 4]: the curve at t = i / n, and
+    the exact end point for the last, so that consecutive edges meet bit for bit."""
+    if i == n:
+        return points[f + 3, 0], points[f + 3, 1]
+    t = i / n
+    u = 1.0 - t
+    b0 = u * u * u
+    b1 = 3.0 * u * u * t
+    b2 = 3.0 * u * t * t
+    b3 = t * t * t
+    return (b0 * points[f, 0] + b1 * points[f + 1, 0] + b2 * points[f + 2, 0] + b3 * points[f + 3, 0],
+            b0 * points[f, 1] + b1 * points[f + 1, 1] + b2 * points[f + 2, 1] + b3 * points[f + 3, 1])
+
+
 @njit(cache=True, nogil=True)
 def _flatten_kernel(points, first, ids, border, tol, max_steps):
     n_seg = ids.shape[0]
-    steps = np.empty(n_seg, np.int64)
+    nsteps = np.empty(n_seg, np.int64)
     total = 0
     for q in range(n_seg):
         k = ids[q]
-        f = first[k]
-        if border[k]:
-            n = 1
-        else:
-            ax = points[f, 0] - 2.0 * points[f + 1, 0] + points[f + 2, 0]
-            ay = points[f, 1] - 2.0 * points[f + 1, 1] + points[f + 2, 1]
-            bx = points[f + 1, 0] - 2.0 * points[f + 2, 0] + points[f + 3, 0]
-            by = points[f + 1, 1] - 2.0 * points[f + 2, 1] + points[f + 3, 1]
-            dd = max(np.sqrt(ax * ax + ay * ay), np.sqrt(bx * bx + by * by))
-            n = int(np.ceil(np.sqrt(0.75 * dd / tol)))
-            n = min(max(n, 1), max_steps)
-        steps[q] = n
-        total += n
+        nsteps[q] = steps(points, first[k], border[k], tol, max_steps)
+        total += nsteps[q]
     x0 = np.empty(total)
     y0 = np.empty(total)
     x1 = np.empty(total)
@@ -57,25 +76,11 @@ def _flatten_kernel(points, first, ids, border, tol, max_steps):
     for q in range(n_seg):
         k = ids[q]
         f = first[k]
-        n = steps[q]
-        p0x, p0y = points[f, 0], points[f, 1]
-        p1x, p1y = points[f + 1, 0], points[f + 1, 1]
-        p2x, p2y = points[f + 2, 0], points[f + 2, 1]
-        p3x, p3y = points[f + 3, 0], points[f + 3, 1]
+        n = nsteps[q]
         s = not border[k]
-        px, py = p0x, p0y
+        px, py = points[f, 0], points[f, 1]
         for i in range(1, n + 1):
-            if i == n:  # exact chain joints, so consecutive edges meet bit for bit
-                qx, qy = p3x, p3y
-            else:
-                t = i / n
-                u = 1.0 - t
-                b0 = u * u * u
-                b1 = 3.0 * u * u * t
-                b2 = 3.0 * u * t * t
-                b3 = t * t * t
-                qx = b0 * p0x + b1 * p1x + b2 * p2x + b3 * p3x
-                qy = b0 * p0y + b1 * p1y + b2 * p2y + b3 * p3y
+            qx, qy = point(points, f, i, n)
             x0[e] = px
             y0[e] = py
             x1[e] = qx

@@ -33,7 +33,7 @@ from .blocks import ChannelLevel, make_level, split
 from .levels import auto_supersample, reduction_r
 from .prepare import prepared
 from .sharpen import gains
-from .strips import STRIP_ROWS, BlockCache, SampleEdges, fill_rows, sample_positions, strip_cuts  # noqa: F401
+from .strips import STRIP_ROWS, BlockCache, SampleEdges, crop_windings, fill_rows, sample_positions, strip_cuts  # noqa: F401,E501
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,12 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
                     for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
                         last[bi] = r1
             del cuts_ch
-            return cache, SampleEdges(cl, vp, vp.out_h * vp.s), xs, ys, last
+            windings = None
+            if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
+                # a crop of a prepared master: its strips read the canvas's row windings left of it
+                windings = prep.get(prep.windings, (ch.name, cl.tol, cl.level, vp.kx, vp.offx, vp.ky, vp.offy),
+                                    lambda: crop_windings(cl, vp, vi.width, vi.height))
+            return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings), xs, ys, last
 
         ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
 

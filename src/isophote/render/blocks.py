@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._kernels.diffuse import band_widths, evaluate, label_nodes, offsets, propagate, region_caps, seed
-from ._kernels.raster import rasterise
+from ._kernels.raster import rasterise, rasterise_chains
 from ._kernels.regions import cap_values, local_cap_values
 from ._kernels.sharpen import correction
 from .distance import MAX_SWEEPS, MODES, NodeField
@@ -110,15 +110,16 @@ class ChannelLevel:
         """Segments whose box reaches the window's nodes (widened by a node)."""
         return self.index.window(i0, j0, n, m)
 
-    def strip_segments(self, y_lo: float, y_hi: float) -> np.ndarray:
-        """Segments whose box reaches node rows y_lo..y_hi (widened by a node)."""
-        return self.index.rows(y_lo, y_hi)
+    def strip_segments(self, y_lo: float, y_hi: float, x_lo: float = -np.inf, x_hi: float = np.inf) -> np.ndarray:
+        """Segments whose box reaches node rows y_lo..y_hi (widened by a node), and node
+        columns x_lo..x_hi when given."""
+        return self.index.rows(y_lo, y_hi, x_lo, x_hi)
 
-    def edges_of(self, idx):
-        """Edges of the segments idx (ascending), in source pixels."""
-        if idx is None:
-            return self.edges
-        return self.index.edges(idx, self.tol)
+    def rasterise(self, ids, kx, ox, ky, oy, swap, *args):
+        """raster.rasterise(*args) of the segments ids (ascending) flattened at the level's tol
+        and mapped to x * kx - ox, y * ky - oy (swapped with ``swap``): rasterise_chains."""
+        ix = self.index
+        return rasterise_chains(ix.points, ix.first, ix.border, ids, self.tol, kx, ox, ky, oy, swap, *args)
 
     def _regions(self):
         """Bands of the whole level, a block row at a time, then their regions and cap values."""
@@ -127,8 +128,8 @@ class ChannelLevel:
         band = np.empty((lv.nr, lv.nc), np.int16)
         for bi in range(lv.blocks()[0]):
             i0, n = bi * B, min(B, lv.nr - bi * B)
-            x0, y0, x1, y1, src = self.edges_of(self.strip_segments(i0, i0 + n))
-            band[i0:i0 + n], *_ = rasterise(x0 * r, y0 * r - i0, x1 * r, y1 * r - i0, src, 0, 0, n, lv.nc, False)
+            band[i0:i0 + n], *_ = self.rasterise(self.strip_segments(i0, i0 + n), r, 0.0, r, float(i0), False,
+                                                 0, 0, n, lv.nc, False)
         band += np.int16(ch.base_band)
         labels, m = label_nodes(band)
         self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
@@ -143,12 +144,17 @@ class ChannelLevel:
         r = lv.r
         # a blocked window takes only the segments that reach it: the winding of those wholly
         # left of it is the canvas band's at its first column (the same edges, so the same sum)
-        x0, y0, x1, y1, es = self.edges_of(self.window_segments(i0, j0, n, m) if lv.block else None)
-        band, *h = rasterise(x0 * r - j0, y0 * r - i0, x1 * r - j0, y1 * r - i0, es, 0, 0, n, m, True)
+        if lv.block:
+            ids = self.window_segments(i0, j0, n, m)
+            band, *h = self.rasterise(ids, r, float(j0), r, float(i0), False, 0, 0, n, m, True)
+            _, *v = self.rasterise(ids, r, float(j0), r, float(i0), True, 0, 0, m, n, True, True)
+        else:
+            x0, y0, x1, y1, es = self.edges
+            band, *h = rasterise(x0 * r - j0, y0 * r - i0, x1 * r - j0, y1 * r - i0, es, 0, 0, n, m, True)
+            _, *v = rasterise(y0 * r - i0, x0 * r - j0, y1 * r - i0, x1 * r - j0, es, 0, 0, m, n, True, True)
         band += np.int16(ch.base_band)
         if lv.block:
             band += (self.gband[i0:i0 + n, j0] - band[:, 0])[:, None]
-        _, *v = rasterise(y0 * r - i0, x0 * r - j0, y1 * r - i0, x1 * r - j0, es, 0, 0, m, n, True, True)
         mode = MODES[distance]
         F = seed(band, tuple(h), tuple(v), ch.levels, mode)
         del h, v

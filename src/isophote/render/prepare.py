@@ -25,7 +25,7 @@ FIELD_BYTES = 384 * 2**20  # block fields kept by a preparation, all channels an
 class Preparation:
     def __init__(self, field_bytes: int = FIELD_BYTES):
         self.field_bytes = field_bytes
-        self.edges, self.levels, self.caches = {}, {}, {}
+        self.edges, self.levels, self.caches, self.windings = {}, {}, {}, {}
         self.lock = threading.Lock()
 
     def get(self, table: dict, key, make):

@@ -49,10 +49,13 @@ class SegmentIndex:
         B = self.block
         return self._select(i0 // B, (i0 + n - 1) // B, j0 // B, (j0 + m - 1) // B, j0 - 1, j0 + m + 1, i0 - 1, i0 + n + 1)
 
-    def rows(self, y_lo: float, y_hi: float) -> np.ndarray:
-        """Segments (ascending ids) whose box reaches node rows y_lo..y_hi widened by a node."""
+    def rows(self, y_lo: float, y_hi: float, x_lo: float = -INF, x_hi: float = INF) -> np.ndarray:
+        """Segments (ascending ids) whose box reaches node rows y_lo..y_hi widened by a node
+        (and, when given, node columns x_lo..x_hi)."""
         B = self.block
-        return self._select(int(y_lo // B), int(y_hi // B), 0, self.nbc - 1, -INF, INF, y_lo - 1, y_hi + 1)
+        c0 = 0 if x_lo == -INF else int(np.floor((x_lo - 1) / B))
+        c1 = self.nbc - 1 if x_hi == INF else int(np.floor((x_hi + 1) / B))
+        return self._select(int(y_lo // B), int(y_hi // B), c0, c1, x_lo, x_hi, y_lo - 1, y_hi + 1)
 
     def edges(self, ids=None, tol: float = 0.05):
         """Edges (x0, y0, x1, y1, is_source) in source pixels of the segments ids (all the kept
