@@ -126,3 +126,17 @@ def test_row_windings_match_the_band_left_of_each_bin(seed):
                                 col0 + m - c * step + 1, False)[0]
         got = w[:, c:c + 1] + part[:, col0 - c * step + 1:] - part[:, :1]
         assert np.array_equal(got, full[:, col0:col0 + m])
+
+
+def test_rasterise_window_is_rows_and_columns():
+    from isophote.render._kernels.raster import rasterise_chains, rasterise_window
+
+    rng = np.random.default_rng(3)
+    points, first, _ = _chains(rng, 100, span=30.0, size=4.0)
+    border = rng.random(100) < 0.2
+    ids = np.arange(0, 100, 2)
+    rows, cols = rasterise_window(points, first, border, ids, 0.05, 0.5, 2.0, 3.0, 11, 13)
+    a = rasterise_chains(points, first, border, ids, 0.05, 0.5, 2.0, 0.5, 3.0, False, 0, 0, 11, 13, True)
+    b = rasterise_chains(points, first, border, ids, 0.05, 0.5, 2.0, 0.5, 3.0, True, 0, 0, 13, 11, True, True)
+    for u, v in zip(rows + cols, a + b):
+        assert np.array_equal(u, v)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._kernels.diffuse import band_widths, evaluate, label_nodes, offsets, propagate, region_caps, seed
-from ._kernels.raster import rasterise, rasterise_chains
+from ._kernels.raster import rasterise, rasterise_chains, rasterise_window
 from ._kernels.regions import cap_values, local_cap_values
 from ._kernels.sharpen import correction
 from .distance import MAX_SWEEPS, MODES, NodeField
@@ -146,8 +146,9 @@ class ChannelLevel:
         # left of it is the canvas band's at its first column (the same edges, so the same sum)
         if lv.block:
             ids = self.window_segments(i0, j0, n, m)
-            band, *h = self.rasterise(ids, r, float(j0), r, float(i0), False, 0, 0, n, m, True)
-            _, *v = self.rasterise(ids, r, float(j0), r, float(i0), True, 0, 0, m, n, True, True)
+            ix = self.index
+            (band, *h), (_, *v) = rasterise_window(ix.points, ix.first, ix.border, ids, self.tol, r, float(j0),
+                                                   float(i0), n, m)
         else:
             x0, y0, x1, y1, es = self.edges
             band, *h = rasterise(x0 * r - j0, y0 * r - i0, x1 * r - j0, y1 * r - i0, es, 0, 0, n, m, True)

@@ -77,6 +77,28 @@ def rasterise_chains(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0
 
 
 @njit(cache=True, nogil=True)
+def rasterise_window(points, first, border, ids, tol, r, j0, i0, n_rows, n_cols):
+    """A window's rows and columns at once: (rasterise_chains(..., r, j0, r, i0, False, 0, 0,
+    n_rows, n_cols, True), rasterise_chains(..., r, j0, r, i0, True, 0, 0, n_cols, n_rows, True,
+    True)), flattening each segment once for both."""
+    rows = _accumulators(n_rows, n_cols, True)
+    cols = _accumulators(n_cols, n_rows, True)
+    for q in range(ids.shape[0]):
+        k = ids[q]
+        f = first[k]
+        n = steps(points, f, border[k], tol, MAX_STEPS)
+        src = not border[k]
+        px, py = points[f, 0] * r - j0, points[f, 1] * r - i0
+        for i in range(1, n + 1):
+            sx, sy = point(points, f, i, n)
+            qx, qy = sx * r - j0, sy * r - i0
+            _edge(rows, px, py, qx, qy, src, 0, 0, n_rows, n_cols, True, NUDGE_Y, NUDGE_X)
+            _edge(cols, py, px, qy, qx, src, 0, 0, n_cols, n_rows, True, NUDGE_X, NUDGE_Y)
+            px, py = qx, qy
+    return _finish(rows, n_rows, n_cols), _finish(cols, n_cols, n_rows)
+
+
+@njit(cache=True, nogil=True)
 def _accumulators(n_rows, n_cols, crossings):
     delta = np.zeros((n_rows, n_cols + 1), np.int32)
     if crossings:
