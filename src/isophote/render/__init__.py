@@ -163,8 +163,7 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
             windings = None
             if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
                 # a crop of a prepared master: its strips read the canvas's row windings left of it
-                windings = prep.get(prep.windings, (ch.name, cl.tol, cl.level, vp.kx, vp.offx, vp.ky, vp.offy),
-                                    lambda: crop_windings(cl, vp, vi.width, vi.height))
+                windings = prepared_windings(vi, ch, cl, vp, prep)
             return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings), xs, ys, last
 
         ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
@@ -226,6 +225,13 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
 
 
 _REGIONS_LOCK = threading.Lock()
+
+
+def prepared_windings(vi, ch, cl, vp: Viewport, prep):
+    """The preparation's row windings of a channel's level at this viewport's sample lattice
+    (strips.crop_windings), made once."""
+    return prep.get(prep.windings, (ch.name, cl.tol, cl.level, vp.kx, vp.offx, vp.ky, vp.offy),
+                    lambda: crop_windings(cl, vp, vi.width, vi.height))
 
 
 def _convert(vi, planes, depth) -> np.ndarray:

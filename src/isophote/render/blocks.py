@@ -6,7 +6,8 @@ whole level at once, as they always were. On a larger one the level is cut into 
 blocks of ``block`` nodes, aligned on the level's origin (so the cut depends on the canvas
 and the scale only, never on the crop or the strips), and each block's fields are computed
 on a window of the block plus ``margin`` nodes on every side, from the edges that reach the
-window only. A target sample reads the fields of the block its position falls in. Every crop
+window only (the level's segment index lists them per block: segment_index.py). A target
+sample reads the fields of the block its position falls in. Every crop
 of a render therefore computes exactly the blocks it touches, with the same windows, and is
 the same region of the full render; a render touches only the blocks under its samples.
 

@@ -25,11 +25,11 @@ def _holds_row(lo, hi):
 
 @njit(cache=True, nogil=True)
 def segment_boxes(points, first, r, cull, sky, soff):
-    """(kept ids (K,) int64 ascending, boxes (4, K) float32 [x_lo, x_hi, y_lo, y_hi] in node
+    """(kept ids (K,) int32 ascending, boxes (4, K) float32 [x_lo, x_hi, y_lo, y_hi] in node
     units at r nodes a source pixel). With ``cull`` only the segments whose box holds a node
     row or column, or (sky > 0) a sample row at y * sky - soff = I + 0.5."""
     n = first.shape[0]
-    ids = np.empty(n, np.int64)
+    ids = np.empty(n, np.int32)
     box = np.empty((4, n), np.float32)
     kept = 0
     for k in range(n):
@@ -67,7 +67,7 @@ def _cell(v, size, nb):
 @njit(cache=True, nogil=True)
 def grid_index(box, size, nbr, nbc):
     """CSR of the boxes by the blocks (row-major, ``size`` nodes a side) they reach widened by
-    a node: (index (N,) positions into the boxes, ascending within each block; starts
+    a node: (index (N,) int32 positions into the boxes, ascending within each block; starts
     (nbr * nbc + 1,))."""
     n = box.shape[1]
     one = np.float32(1.0)
@@ -80,7 +80,7 @@ def grid_index(box, size, nbr, nbc):
                 starts[b * nbc + c + 1] += 1
     for b in range(nbr * nbc):
         starts[b + 1] += starts[b]
-    index = np.empty(starts[-1], np.int64)
+    index = np.empty(starts[-1], np.int32)
     pos = starts[:-1].copy()
     for k in range(n):
         r0, r1 = _cell(box[2, k] - one, size, nbr), _cell(box[3, k] + one, size, nbr)
