@@ -49,11 +49,11 @@ else:
     import isophote
     from isophote.render.tiles import Tiler
     vi = isophote.load(case["master"])
+    zooms = [2.0 ** k for k in range(-6, 4)]
     t1 = time.perf_counter()
-    tiler = Tiler(vi, zooms=(1.0,))
+    tiler = Tiler(vi, zooms=zooms)  # every zoom the tiles ask for
     t2 = time.perf_counter()
     rng = random.Random(22)
-    zooms = [2.0 ** k for k in range(-6, 4)]
     times = {}
     for _ in range(case["tiles"]):
         z = rng.choice(zooms)
@@ -96,12 +96,21 @@ def main(argv=None) -> int:
     ap.add_argument("--tiles", type=int, default=500)
     ap.add_argument("--timeout", type=float, default=900)
     ap.add_argument("--skip", default="", help="comma-separated cases to skip (1x, tiles)")
+    ap.add_argument("--sizes", choices=("mosaic", "proportional"), default="mosaic",
+                    help="the mosaic's output sizes, or the same scales of the master given")
     ap.add_argument("--out", default=RESULTS)
     args = ap.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
     rows = []
-    for name, width, height, opts in [("3840x2400", 3840, 2400, dict(width=3840, height=2400)),
-                                      ("960 wide", 960, None, dict(width=960))]:
+    sizes = [("3840x2400", 3840, 2400), ("960 wide", 960, None)]
+    if args.sizes == "proportional":  # the same reductions of a smaller master (0.75 and 0.1875 of its width)
+        from PIL import Image
+
+        w0, h0 = Image.open(args.original).size
+        sizes = [(f"{round(w0 * 0.75)}x{round(h0 * 0.75)}", round(w0 * 0.75), round(h0 * 0.75)),
+                 (f"{round(w0 * 0.1875)} wide", round(w0 * 0.1875), None)]
+    for name, width, height in sizes:
+        opts = dict(width=width, height=height) if height else dict(width=width)
         pil = run(dict(kind="pillow", original=args.original, width=width, height=height), args.timeout)
         ren = run(dict(kind="render", master=args.master, options=opts), args.timeout)
         rows.append((name, pil, ren))

@@ -106,6 +106,20 @@ def test_tile_equals_render_crop(vi, forced_blocks):
     assert t.preparation.levels  # the preparation holds the levels it made
 
 
+def test_prepared_tiles_equal_unprepared_renders(vi, forced_blocks, monkeypatch):
+    """A prepared master's crops read its row windings and rasterise their own columns only
+    (render/strips.py); they equal the renders of an unprepared copy, which read whole rows."""
+    from isophote.render.tiles import Tiler
+
+    monkeypatch.setattr(strips, "WINDING_STEP", 8)  # bins of 8 sample columns: crops start past several
+    fresh = dataclasses.replace(vi)  # the same image, without the preparation
+    t = Tiler(vi, zooms=(0.5, 1.0, 3.0))
+    assert t.preparation.windings
+    for (x, y, w, h, ow, oh) in [(64, 32, 32, 32, 16, 16), (40, 8, 16, 24, 16, 24), (70, 30, 10, 10, 30, 30),
+                                 (33, 11, 20, 20, 60, 60)]:
+        assert np.array_equal(t.tile(x, y, w, h, ow, oh), fresh.render(crop=(x, y, w, h), width=ow, height=oh))
+
+
 def test_same_bytes_whatever_strips_and_workers(vi, monkeypatch):
     for forced in (False, True):
         if forced:

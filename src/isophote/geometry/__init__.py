@@ -14,7 +14,7 @@ the coordinates once); a channel's segments are an (S, 4, 2) array with a border
 from .areas import polyline_areas, segment_moments, signed_areas
 from .bezier import evaluate, evaluate_grid, map_cubics, split, subsegment
 from .chains import chain_segments, join_segments, line_segment, segment_starts, segments
-from .flatten import MAX_STEPS, contour_edges, flatten
+from .flatten import MAX_STEPS, contour_edges, flatten, flatten_selected
 from .flatten_ref import flatten as flatten_ref
 from .pen import (AreaPen, BoundsPen, ControlBoundsPen, EdgesPen, Pen, RecordingPen, SegmentPen,
                   TransformPen, draw, draw_segments)
@@ -22,7 +22,7 @@ from .pen import (AreaPen, BoundsPen, ControlBoundsPen, EdgesPen, Pen, Recording
 __all__ = [
     "MAX_STEPS", "AreaPen", "BoundsPen", "ControlBoundsPen", "EdgesPen", "Pen", "RecordingPen",
     "SegmentPen", "TransformPen", "chain_segments", "contour_edges", "draw", "draw_segments", "evaluate",
-    "evaluate_grid", "flatten", "flatten_ref", "join_segments", "line_segment", "map_cubics",
+    "evaluate_grid", "flatten", "flatten_ref", "flatten_selected", "join_segments", "line_segment", "map_cubics",
     "polyline_areas", "segment_moments", "segment_starts", "segments", "signed_areas", "split",
     "subsegment",
 ]

@@ -28,12 +28,12 @@ from ..colour import YUV_TO_RGB, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
-from ..geometry import segments
+from ..geometry import segment_starts
 from .blocks import ChannelLevel, make_level, split
 from .levels import auto_supersample, reduction_r
 from .prepare import prepared
 from .sharpen import gains
-from .strips import STRIP_ROWS, BlockCache, SampleEdges, fill_rows, sample_positions, strip_cuts  # noqa: F401
+from .strips import STRIP_ROWS, BlockCache, SampleEdges, crop_windings, fill_rows, sample_positions, strip_cuts  # noqa: F401,E501
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,11 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
                     for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
                         last[bi] = r1
             del cuts_ch
-            return cache, SampleEdges(cl, vp, vp.out_h * vp.s), xs, ys, last
+            windings = None
+            if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
+                # a crop of a prepared master: its strips read the canvas's row windings left of it
+                windings = prepared_windings(vi, ch, cl, vp, prep)
+            return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings), xs, ys, last
 
         ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
 
@@ -201,23 +205,33 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
     gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
     smooth = opts.fill != "linear"
 
+    rows = (vp.ky, vp.offy)  # the sample rows: segments that cross none of them nor the nodes' are culled
+
     def make_level_state():
-        segs, border = prep.get(prep.edges, ch.name, lambda: segments(ch)) if prep is not None else segments(ch)
+        first = prep.get(prep.edges, ch.name, lambda: segment_starts(ch.offsets)[0]) if prep is not None \
+            else segment_starts(ch.offsets)[0]
         if level.block:
             with _REGIONS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
-                return ChannelLevel(vi, ch, segs, border, tol, level)
-        return ChannelLevel(vi, ch, segs, border, tol, level)
+                return ChannelLevel(vi, ch, first, tol, level, rows)
+        return ChannelLevel(vi, ch, first, tol, level, rows)
 
     if prep is None:
         cl = make_level_state()
         return cl, BlockCache(cl, opts.distance, smooth, gain, 1 << 62)
-    cl = prep.get(prep.levels, (ch.name, tol, level), make_level_state)
+    cl = prep.get(prep.levels, (ch.name, tol, level, rows), make_level_state)
     cache = prep.get(prep.caches, (ch.name, tol, level, opts.distance, smooth, gain),
                      lambda: BlockCache(cl, opts.distance, smooth, gain, prep.field_bytes // max(1, len(vi.channels))))
     return cl, cache
 
 
 _REGIONS_LOCK = threading.Lock()
+
+
+def prepared_windings(vi, ch, cl, vp: Viewport, prep):
+    """The preparation's row windings of a channel's level at this viewport's sample lattice
+    (strips.crop_windings), made once."""
+    return prep.get(prep.windings, (ch.name, cl.tol, cl.level, vp.kx, vp.offx, vp.ky, vp.offy),
+                    lambda: crop_windings(cl, vp, vi.width, vi.height))
 
 
 def _convert(vi, planes, depth) -> np.ndarray:

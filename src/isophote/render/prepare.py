@@ -2,15 +2,20 @@
 
 Without it every render builds what it needs and lets it go. With it (``prepare(vi)``,
 kept with the VectorImage until it is collected) renders and tiles reuse, per channel:
-- the flattened edges at each tolerance (one per zoom above 1x, one below);
-- each level's ChannelLevel: edges in node units indexed by blocks, and for a blocked level
-  the canvas-wide regions (4 bytes a node kept: 64 MB a channel at 1x for 16 MP; computing
-  them takes a band raster and a labelling of the level, about a tenth of the fields);
+- each segment's first control point in the chains (8 bytes a segment);
+- each level's ChannelLevel (one per zoom): its segment index (segment_index.py: the
+  segments that cross its node rows or columns or its sample rows, their boxes and a CSR
+  list per block, about 26 bytes a kept segment) and for a blocked level the canvas-wide
+  regions (6 bytes a node: 96 MB a channel at 1x for 16 MP). Making one costs a pass over
+  the channel's segments, flattened and rasterised on the level's node rows (no crossings)
+  and a labelling of the level: about a fifth of a render's geometry at that zoom;
+- for a blocked level that crops read, the windings of every sample row left of each
+  128-column bin (4 bytes a row and bin: 0.5 MB a channel at 1x for 16 MP, 33 MB at 8:1;
+  one more pass over the segments), so that a tile rasterises its own columns only;
 - the block fields, least recently used first out, within ``field_bytes`` in all
   (WINDOW_BYTES a node of a window).
-Which zooms are prepared at once is the caller's choice (default 1x: the regions of the
-largest level a deep-zoom pyramid reads); the others are prepared by the first tile that
-needs them.
+Which zooms are prepared at once is the caller's choice (default 1x); the others are
+prepared by the first tile that needs them.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ FIELD_BYTES = 384 * 2**20  # block fields kept by a preparation, all channels an
 class Preparation:
     def __init__(self, field_bytes: int = FIELD_BYTES):
         self.field_bytes = field_bytes
-        self.edges, self.levels, self.caches = {}, {}, {}
+        self.edges, self.levels, self.caches, self.windings = {}, {}, {}, {}
         self.lock = threading.Lock()
 
     def get(self, table: dict, key, make):
@@ -45,7 +50,7 @@ def prepared(vi):
 def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES) -> Preparation:
     """Prepare (once) what renders of ``vi`` at these zooms (output pixels per source pixel)
     share, and keep it with ``vi``; later renders and tiles reuse it."""
-    from . import channel_state, viewport
+    from . import channel_state, prepared_windings, viewport
     from ..options import RenderOptions
 
     prep = _PREPARED.get(vi)
@@ -55,5 +60,7 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES) -> Preparation:
         opts = RenderOptions(scale=float(z), max_pixels=2**62)
         vp = viewport(vi, opts)
         for ch in vi.channels:
-            channel_state(vi, ch, vp, opts, prep)
+            cl, _ = channel_state(vi, ch, vp, opts, prep)
+            if cl.level.block:  # what its crops (tiles) read
+                prepared_windings(vi, ch, cl, vp, prep)
     return prep

@@ -14,11 +14,39 @@ from collections import OrderedDict
 import numpy as np
 
 from ..model import apply_tone_curve
-from ._kernels.raster import rasterise
-from .blocks import WINDOW_BYTES, Buckets, evaluate_piece, split
+from ._kernels.raster import rasterise, row_windings
+from .blocks import WINDOW_BYTES, evaluate_piece, split
 
 STRIP_ROWS = 128  # output rows per strip of a one-window render
 SAMPLE_BUCKET = 64  # sample rows per bucket of the samples' edge index
+WINDING_STEP = 128  # sample columns per bin of a preparation's row windings
+
+
+class Buckets:
+    """Indices of edges by the bands of ``size`` nodes their extent [lo, hi] reaches (widened
+    by a node), in their original order within each band."""
+
+    def __init__(self, lo, hi, size: int, n: int):
+        first = np.clip(np.floor((lo - 1.0) / size), 0, n - 1).astype(np.int64)
+        last = np.clip(np.floor((hi + 1.0) / size), 0, n - 1).astype(np.int64)
+        count = np.maximum(last - first + 1, 0)
+        edge = np.repeat(np.arange(len(lo)), count)
+        bucket = np.repeat(first - np.cumsum(count) + count, count) + np.arange(len(edge))
+        order = np.argsort(bucket, kind="stable")
+        self.index = edge[order]
+        self.starts = np.searchsorted(bucket[order], np.arange(n + 1))
+        self.n = n
+
+    def of(self, b0: int, b1: int) -> np.ndarray:
+        """Edges reaching buckets b0..b1 (inclusive), each once, in original order."""
+        b0, b1 = max(b0, 0), min(b1, self.n - 1)
+        idx = self.index[self.starts[b0]:self.starts[b1 + 1]]
+        if b0 == b1 or len(idx) == 0:
+            return idx  # one bucket: ascending already
+        lo = int(idx.min())
+        mark = np.zeros(int(idx.max()) - lo + 1, np.bool_)
+        mark[idx - lo] = True
+        return np.flatnonzero(mark) + lo
 
 
 class BlockCache:
@@ -59,8 +87,9 @@ class SampleEdges:
     depend on which extra edges a strip is given (a winding sum of the edges that cross its
     rows), so any strip cut gives the same samples."""
 
-    def __init__(self, cl, vp, n_rows: int):
+    def __init__(self, cl, vp, n_rows: int, windings=None):
         self.cl, self.vp = cl, vp
+        self.windings = windings  # (row_windings of the whole canvas, its step), for crops
         if cl.level.block:
             return
         x0, y0, x1, y1, self.src = cl.edges
@@ -73,15 +102,46 @@ class SampleEdges:
     def band(self, ys, a0: int, n: int, m: int) -> np.ndarray:
         """Bands of sample rows [a0, a0 + n) of the output (at node rows ys), m columns."""
         vp, cl = self.vp, self.cl
-        if cl.level.block:
-            x0, y0, x1, y1, src = cl.edges_of(cl.strip_segments(ys[a0], ys[a0 + n - 1]))
-            X0, X1, Y0, Y1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+        if cl.level.block and self.windings is not None:
+            tband = self._crop_band(ys, a0, n, m)
+        elif cl.level.block:
+            tband, *_ = cl.rasterise(cl.strip_segments(ys[a0], ys[a0 + n - 1]), vp.kx, vp.offx, vp.ky, vp.offy, False,
+                                     vp.row0 + a0, vp.col0, n, m, False)
         else:
             sel = self.buckets.of(a0 // SAMPLE_BUCKET, (a0 + n - 1) // SAMPLE_BUCKET)
             X0, Y0, X1, Y1, src = self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel]
-        tband, *_ = rasterise(X0, Y0, X1, Y1, src, vp.row0 + a0, vp.col0, n, m, False)
+            tband, *_ = rasterise(X0, Y0, X1, Y1, src, vp.row0 + a0, vp.col0, n, m, False)
         tband += np.int16(cl.ch.base_band)
         return tband
+
+    def _crop_band(self, ys, a0: int, n: int, m: int) -> np.ndarray:
+        """A crop's bands from the edges that reach it and those between it and the bin of
+        columns left of it, plus the windings of everything left of that bin (row_windings):
+        the same sums as the whole rows', at the cost of the crop's columns."""
+        vp, cl = self.vp, self.cl
+        W, step = self.windings
+        c = vp.col0 // step
+        kc = c * step
+        r = cl.level.r
+        x_lo = (kc - 1.5 + vp.offx) / vp.kx * r - 2.0
+        x_hi = (vp.col0 + m + 0.5 + vp.offx) / vp.kx * r + 2.0
+        ids = cl.strip_segments(ys[a0], ys[a0 + n - 1], x_lo, x_hi)
+        part, *_ = cl.rasterise(ids, vp.kx, vp.offx, vp.ky, vp.offy, False, vp.row0 + a0, kc - 1, n,
+                                vp.col0 + m - kc + 1, False)
+        left = W[vp.row0 + a0:vp.row0 + a0 + n, c] - part[:, 0]
+        return (part[:, vp.col0 - kc + 1:] + left[:, None]).astype(np.int16)
+
+
+def crop_windings(cl, vp, canvas_w: float, canvas_h: float):
+    """row_windings of every sample row of the canvas at this viewport's lattice, bins of
+    WINDING_STEP sample columns: what a preparation keeps so that crops rasterise only their
+    own columns (SampleEdges._crop_band)."""
+    n_rows = int(np.ceil(canvas_h * vp.ky - vp.offy)) + 1
+    n_bins = int(np.ceil(canvas_w * vp.kx - vp.offx)) // WINDING_STEP + 2
+    ix = cl.index
+    W = row_windings(ix.points, ix.first, ix.border, ix.ids, cl.tol, vp.kx, vp.offx, vp.ky, vp.offy, 0, n_rows,
+                     WINDING_STEP, n_bins)
+    return W, WINDING_STEP
 
 
 def sample_positions(vp, r: float):

@@ -7,10 +7,11 @@ the blocks under it, once computed. Tiles of one zoom (the same out_w / w and ou
 their origins on that zoom's pixel lattice) join seamlessly, since every crop at one scale
 is the same region of the full render.
 
-Preparation cost (VectorImage.prepare, or the first tile of a zoom): for every channel its
-segments (64 bytes each, kept), and per level a band raster and a labelling of the whole
-level (6 bytes a node kept: 96 MB a channel at 1x for 16 MP; about a tenth of a 1x render's
-field work per level). Block fields are kept within prepare.FIELD_BYTES (384 MB).
+Preparation cost (VectorImage.prepare, or the first tile of a zoom): per channel and zoom a
+segment index, the canvas-wide regions and the row windings (prepare.py gives the bytes and
+passes). Block fields are kept within prepare.FIELD_BYTES (384 MB). After that a tile reads
+the segments of its own blocks and columns only: its cost is its windows' fields and its
+samples, whatever the canvas.
 """
 
 from __future__ import annotations

@@ -414,9 +414,10 @@ def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
         for i in range(lo_i, hi_i + 1):
             if i < 0 or i >= nr:
                 continue
+            inner = ring == 1 and i0 <= i <= i0 + 1
             for j in range(lo_j, hi_j + 1):
-                if j < 0 or j >= nc:
-                    continue
+                if j < 0 or j >= nc or (inner and j0 <= j <= j0 + 1):
+                    continue  # (the cell's own nodes, seen in ring 0, would change nothing)
                 bn = nband[i, j]
                 if bn == b:
                     found = True

@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ...geometry.flatten import MAX_STEPS, point, steps
+
 NUDGE_X = 2.0**-21
 NUDGE_Y = 2.0**-21 * 0.6180339887498949  # (sqrt(5) - 1) / 2: no lattice slope
 
@@ -42,7 +44,62 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings, tra
     gap, the leftmost and rightmost crossing (dw = 0 where the gap has none, or where that
     crossing is a border edge's) and the crossing edge's dx/dy.
     """
+    acc = _accumulators(n_rows, n_cols, crossings)
     nudge_row, nudge_col = (NUDGE_X, NUDGE_Y) if transposed else (NUDGE_Y, NUDGE_X)
+    for e in range(x0.shape[0]):
+        _edge(acc, x0[e], y0[e], x1[e], y1[e], is_src[e], row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col)
+    return _finish(acc, n_rows, n_cols)
+
+
+@njit(cache=True, nogil=True)
+def rasterise_chains(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0, col0, n_rows, n_cols, crossings,
+                     transposed=False):
+    """rasterise() of the edges flatten_selected(points, first, border, ids, tol) would give,
+    mapped to grid units (x * kx - ox, y * ky - oy; swapped with ``swap``), in the same order,
+    without building them: the same band and crossings, bit for bit."""
+    acc = _accumulators(n_rows, n_cols, crossings)
+    nudge_row, nudge_col = (NUDGE_X, NUDGE_Y) if transposed else (NUDGE_Y, NUDGE_X)
+    for q in range(ids.shape[0]):
+        k = ids[q]
+        f = first[k]
+        n = steps(points, f, border[k], tol, MAX_STEPS)
+        src = not border[k]
+        px, py = points[f, 0] * kx - ox, points[f, 1] * ky - oy
+        for i in range(1, n + 1):
+            sx, sy = point(points, f, i, n)
+            qx, qy = sx * kx - ox, sy * ky - oy
+            if swap:
+                _edge(acc, py, px, qy, qx, src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col)
+            else:
+                _edge(acc, px, py, qx, qy, src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col)
+            px, py = qx, qy
+    return _finish(acc, n_rows, n_cols)
+
+
+@njit(cache=True, nogil=True)
+def rasterise_window(points, first, border, ids, tol, r, j0, i0, n_rows, n_cols):
+    """A window's rows and columns at once: (rasterise_chains(..., r, j0, r, i0, False, 0, 0,
+    n_rows, n_cols, True), rasterise_chains(..., r, j0, r, i0, True, 0, 0, n_cols, n_rows, True,
+    True)), flattening each segment once for both."""
+    rows = _accumulators(n_rows, n_cols, True)
+    cols = _accumulators(n_cols, n_rows, True)
+    for q in range(ids.shape[0]):
+        k = ids[q]
+        f = first[k]
+        n = steps(points, f, border[k], tol, MAX_STEPS)
+        src = not border[k]
+        px, py = points[f, 0] * r - j0, points[f, 1] * r - i0
+        for i in range(1, n + 1):
+            sx, sy = point(points, f, i, n)
+            qx, qy = sx * r - j0, sy * r - i0
+            _edge(rows, px, py, qx, qy, src, 0, 0, n_rows, n_cols, True, NUDGE_Y, NUDGE_X)
+            _edge(cols, py, px, qy, qx, src, 0, 0, n_cols, n_rows, True, NUDGE_X, NUDGE_Y)
+            px, py = qx, qy
+    return _finish(rows, n_rows, n_cols), _finish(cols, n_cols, n_rows)
+
+
+@njit(cache=True, nogil=True)
+def _accumulators(n_rows, n_cols, crossings):
     delta = np.zeros((n_rows, n_cols + 1), np.int32)
     if crossings:
         fx = np.full((n_rows, n_cols + 1), np.inf, np.float64)
@@ -58,50 +115,100 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings, tra
         ld = np.empty((0, 0), np.int8)
         fs = np.empty((0, 0), np.float32)
         ls = np.empty((0, 0), np.float32)
-    for e in range(x0.shape[0]):
-        ya = y0[e]
-        yb = y1[e]
-        if ya == yb:
-            continue
-        if ya < yb:
-            lo, hi, dw = ya, yb, 1
-        else:
-            lo, hi, dw = yb, ya, -1
-        # rows i with lo <= i + 0.5 < hi, relative to row0
-        i_start = int(np.ceil(lo - 0.5 - nudge_row)) - row0
-        i_stop = int(np.ceil(hi - 0.5 - nudge_row)) - row0  # exclusive
-        if i_start < 0:
-            i_start = 0
-        if i_stop > n_rows:
-            i_stop = n_rows
-        if i_start >= i_stop:
-            continue
-        slope = (x1[e] - x0[e]) / (yb - ya)
-        for i in range(i_start, i_stop):
-            yc = i + row0 + 0.5 + nudge_row
-            x = x0[e] + (yc - ya) * slope
-            k = int(np.floor(x + 0.5 - nudge_col)) - col0
-            if k < 0:
-                k = 0
-            elif k > n_cols:
-                k = n_cols
-            delta[i, k] += dw
-            if crossings:
-                # the nearest crossing of any edge; a border edge (no source) records dw = 0,
-                # so that a source beyond it is not taken for the sample's neighbour
-                sdw = dw if is_src[e] else 0
-                if x < fx[i, k]:
-                    fx[i, k] = x
-                    fd[i, k] = sdw
-                    fs[i, k] = slope
-                if x > lx[i, k]:
-                    lx[i, k] = x
-                    ld[i, k] = sdw
-                    ls[i, k] = slope
+    return delta, fx, fd, lx, ld, fs, ls
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _edge(acc, xa, ya, xb, yb, is_src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col):
+    """One edge's crossings of the rows, into the accumulators."""
+    delta, fx, fd, lx, ld, fs, ls = acc
+    if ya == yb:
+        return
+    if ya < yb:
+        lo, hi, dw = ya, yb, 1
+    else:
+        lo, hi, dw = yb, ya, -1
+    # rows i with lo <= i + 0.5 < hi, relative to row0
+    i_start = int(np.ceil(lo - 0.5 - nudge_row)) - row0
+    i_stop = int(np.ceil(hi - 0.5 - nudge_row)) - row0  # exclusive
+    if i_start < 0:
+        i_start = 0
+    if i_stop > n_rows:
+        i_stop = n_rows
+    if i_start >= i_stop:
+        return
+    slope = (xb - xa) / (yb - ya)
+    for i in range(i_start, i_stop):
+        yc = i + row0 + 0.5 + nudge_row
+        x = xa + (yc - ya) * slope
+        k = int(np.floor(x + 0.5 - nudge_col)) - col0
+        if k < 0:
+            k = 0
+        elif k > n_cols:
+            k = n_cols
+        delta[i, k] += dw
+        if crossings:
+            # the nearest crossing of any edge; a border edge (no source) records dw = 0,
+            # so that a source beyond it is not taken for the sample's neighbour
+            sdw = dw if is_src else 0
+            if x < fx[i, k]:
+                fx[i, k] = x
+                fd[i, k] = sdw
+                fs[i, k] = slope
+            if x > lx[i, k]:
+                lx[i, k] = x
+                ld[i, k] = sdw
+                ls[i, k] = slope
+
+
+@njit(cache=True, nogil=True)
+def _finish(acc, n_rows, n_cols):
+    delta, fx, fd, lx, ld, fs, ls = acc
     band = np.empty((n_rows, n_cols), np.int16)
     for i in range(n_rows):
-        acc = 0
+        a = 0
         for j in range(n_cols):
-            acc += delta[i, j]
-            band[i, j] = acc
+            a += delta[i, j]
+            band[i, j] = a
     return band, fx, fd, lx, ld, fs, ls
+
+
+@njit(cache=True, nogil=True)
+def row_windings(points, first, border, ids, tol, kx, ox, ky, oy, row0, n_rows, step, n_bins):
+    """(n_rows, n_bins) int32: per row (row0 + i, as rasterise's) the winding of the crossings
+    of the segments' edges (mapped as in rasterise_chains) in gaps K < c * step, for c = 0 ..
+    n_bins - 1; i.e. the band rasterise would give at column c * step - 1 (col0 0), less the
+    base band. A crop reads it at the bin left of its first column, and rasterises only the
+    edges from there on (render/strips.py)."""
+    delta = np.zeros((n_rows, n_bins + 1), np.int32)
+    for q in range(ids.shape[0]):
+        k = ids[q]
+        f = first[k]
+        n = steps(points, f, border[k], tol, MAX_STEPS)
+        xa, ya = points[f, 0] * kx - ox, points[f, 1] * ky - oy
+        for e in range(1, n + 1):
+            sx, sy = point(points, f, e, n)
+            xb, yb = sx * kx - ox, sy * ky - oy
+            if ya != yb:
+                if ya < yb:
+                    lo, hi, dw = ya, yb, 1
+                else:
+                    lo, hi, dw = yb, ya, -1
+                i_start = max(int(np.ceil(lo - 0.5 - NUDGE_Y)) - row0, 0)
+                i_stop = min(int(np.ceil(hi - 0.5 - NUDGE_Y)) - row0, n_rows)
+                slope = (xb - xa) / (yb - ya)
+                for i in range(i_start, i_stop):
+                    yc = i + row0 + 0.5 + NUDGE_Y
+                    x = xa + (yc - ya) * slope
+                    g = int(np.floor(x + 0.5 - NUDGE_X))  # the crossing's gap
+                    c = (g + step) // step if g >= 0 else 0  # first bin whose columns it reaches
+                    if c < n_bins:
+                        delta[i, c] += dw
+            xa, ya = xb, yb
+    out = np.empty((n_rows, n_bins), np.int32)
+    for i in range(n_rows):
+        a = 0
+        for c in range(n_bins):
+            a += delta[i, c]
+            out[i, c] = a
+    return out

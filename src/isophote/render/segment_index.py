@@ -1,0 +1,63 @@
+"""A channel's segments at one level, indexed by the level's blocks (render/blocks.py).
+
+Built once per level (and kept by a preparation): the segments that can change a band or a
+field at that level, which are those whose box holds one of the level's node rows or columns
+or one of the render's sample rows (the others are culled: _kernels/index.py), their boxes in
+node units, and for a blocked level a CSR list of them per block. A window or a strip then
+reads the segments of its own blocks only, in their original order, and flattens just those.
+Below 1x most of a dense photograph's segments are far smaller than a node and cross none of
+its rows: a reduction or a tile reads the few that do.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import flatten_selected
+from ._kernels.index import grid_index, segment_boxes, select
+
+INF = float("inf")
+
+
+class SegmentIndex:
+    """Segments of concatenated chains (points, first: chains.segment_starts) at r nodes a
+    source pixel, culled for the node lattice and the sample rows (sky, soff) (sky 0: none),
+    indexed by blocks of ``block`` nodes (0: one window, no index)."""
+
+    def __init__(self, points, first, border, r: float, block: int, nbr: int, nbc: int, sample_rows=(0.0, 0.0)):
+        self.points, self.first, self.border = points, first, border
+        self.ids, self.box = segment_boxes(points, first, float(r), True, float(sample_rows[0]), float(sample_rows[1]))
+        self.block, self.nbr, self.nbc = block, nbr, nbc
+        if block:
+            self.index, self.starts = grid_index(self.box, block, nbr, nbc)
+
+    @property
+    def nbytes(self) -> int:
+        return self.ids.nbytes + self.box.nbytes + (self.index.nbytes + self.starts.nbytes if self.block else 0)
+
+    def _select(self, b0, b1, c0, c1, x_lo, x_hi, y_lo, y_hi) -> np.ndarray:
+        b0, b1 = max(b0, 0), min(b1, self.nbr - 1)
+        c0, c1 = max(c0, 0), min(c1, self.nbc - 1)
+        if b0 > b1 or c0 > c1:
+            return np.zeros(0, np.int64)
+        pos = select(self.index, self.starts, self.nbc, b0, b1, c0, c1, self.box, float(x_lo), float(x_hi),
+                     float(y_lo), float(y_hi))
+        return self.ids[pos]
+
+    def window(self, i0: int, j0: int, n: int, m: int) -> np.ndarray:
+        """Segments (ascending ids) whose box reaches the window's nodes widened by a node."""
+        B = self.block
+        return self._select(i0 // B, (i0 + n - 1) // B, j0 // B, (j0 + m - 1) // B, j0 - 1, j0 + m + 1, i0 - 1, i0 + n + 1)
+
+    def rows(self, y_lo: float, y_hi: float, x_lo: float = -INF, x_hi: float = INF) -> np.ndarray:
+        """Segments (ascending ids) whose box reaches node rows y_lo..y_hi widened by a node
+        (and, when given, node columns x_lo..x_hi)."""
+        B = self.block
+        c0 = 0 if x_lo == -INF else int(np.floor((x_lo - 1) / B))
+        c1 = self.nbc - 1 if x_hi == INF else int(np.floor((x_hi + 1) / B))
+        return self._select(int(y_lo // B), int(y_hi // B), c0, c1, x_lo, x_hi, y_lo - 1, y_hi + 1)
+
+    def edges(self, ids=None, tol: float = 0.05):
+        """Edges (x0, y0, x1, y1, is_source) in source pixels of the segments ids (all the kept
+        ones when None), flattened at tol."""
+        return flatten_selected(self.points, self.first, self.border, self.ids if ids is None else ids, tol)
