@@ -16,7 +16,7 @@ import isophote.encoder as E
 from isophote import OptionError
 from isophote.cli import main
 from isophote.colour import rgb_to_yuv
-from isophote.encoder import budget, levelgroups, strips
+from isophote.encoder import budget, strips
 from isophote.encoder.isolines import find_isolines
 from isophote.encoder.levels import channel_levels
 from isophote.encoder.mapping import map_pixels
@@ -59,34 +59,6 @@ def _plane_grid(preset="balanced", name="Y", h=90, w=120):
     plane, eps = prepare_plane(name, yuv[..., "YUV".index(name)].copy(), 0.5, levels, opts)
     grid, grid_eps = map_pixels(plane, eps, opts.carrato_p, opts.carrato_scale, opts.carrato_cubic)
     return opts, levels, grid, grid_eps
-
-
-@pytest.mark.parametrize("preset", ["balanced", "paper"])
-def test_level_groups_give_the_isolines_of_one_march(preset):
-    opts, levels, grid, grid_eps = _plane_grid(preset)
-    ref = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
-    vals, band = levelgroups.pad_grid(grid, levels)
-    per_level = levelgroups.crossings_per_level(band, len(levels))
-    assert per_level.sum() >= ref.points.shape[0]  # every point is a crossing
-    for max_segments in (1, 500, 3000):
-        groups = levelgroups.level_groups(per_level, max_segments)
-        assert len(groups) > (len(levels) // 2 if max_segments == 1 else 2)
-        assert groups[0][0] == 0 and groups[-1][1] == len(levels)
-        got = levelgroups.find_isolines_grouped(grid, grid_eps, levels, opts.min_tolerance,
-                                                opts.max_tolerance, max_segments)
-        for f in ("points", "offsets", "border", "tol", "level", "above", "below", "band", "values"):
-            a, b = getattr(ref, f), getattr(got, f)
-            assert a.dtype == b.dtype and np.array_equal(a, b), (max_segments, f)
-        assert got.base_band == ref.base_band
-
-
-def test_loop_keys_order_the_loops_as_one_march():
-    """The key read back from each loop's first crossing is increasing in the march's order."""
-    opts, levels, grid, grid_eps = _plane_grid()
-    iso = find_isolines(grid, grid_eps, levels)
-    hp, wp = iso.band.shape
-    keys = levelgroups.loop_keys(iso.below, iso.above, iso.offsets, iso.level, hp, wp, len(levels))
-    assert iso.n_loops > 50 and np.all(np.diff(keys) > 0)
 
 
 def test_fit_batches_give_the_chains_of_one_batch():

@@ -25,11 +25,10 @@ from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy
-from .isolines import Isolines, find_isolines
+from .isolines import Isolines
 from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
 from .strips import strip_isolines
 from .levels import channel_levels
-from .mapping import map_pixels
 from .noise import adapt_steps, prepare_plane
 
 # Handles go onto grids of up to 2**HANDLE_SHIFT / QUANT px (in the chord's frame) where the

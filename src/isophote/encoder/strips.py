@@ -26,7 +26,7 @@ import numpy as np
 
 from ._kernels.strips import march_strip
 from .isolines import Isolines
-from .levelgroups import merge_groups
+from .looporder import merge_loops
 from .mapping import map_rows
 from .ribbon import tolerances
 from .budget import trim_heap
@@ -66,7 +66,7 @@ class _Chain:
 
 
 def _march(v, e, levels, opts, hp, wp, r0, r1):
-    """One strip: its window, its loops (a part for merge_groups) and its pieces."""
+    """One strip: its window, its loops (a part for merge_loops) and its pieces."""
     w0, w1 = max(r0 - 1, 0), min(r1 + 2, hp)
     wv, wb, we = grid_window(v, e, levels, opts, w0, w1, hp, wp)
     (ok, n_kept, offsets, level, key, end_key, inner, points, border, below, above, t, eps_b,
@@ -136,7 +136,7 @@ def _join(carried: dict, pieces: list, closed: list, frame: list) -> dict:
 
 
 def _closed_part(closed: list) -> dict | None:
-    """The loops joined in one strip as a part for merge_groups."""
+    """The loops joined in one strip as a part for merge_loops."""
     if not closed:
         return None
     lengths = np.array([f["tol"].shape[0] for _, _, f in closed], np.int64)
@@ -156,7 +156,6 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
     e = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, np.float64), v.shape))
     h, w = v.shape
     hp, wp = 2 * h + 3, 2 * w + 3
-    nl = levels.shape[0]
     rows = max(int(rows), 1)
     vals = np.zeros((hp, wp))
     band = np.zeros((hp, wp), np.int16)
@@ -198,5 +197,5 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
                       above=np.zeros(0, np.int64), tol=np.zeros(0), level=np.zeros(0, np.int32),
                       offsets=np.zeros(1, np.int64))
     else:
-        merged = merge_groups(parts, hp, wp, nl)
+        merged = merge_loops(parts)
     return Isolines(band=band, values=vals, base_band=base, **merged)
