@@ -44,7 +44,7 @@ def test_concurrent_limits_hold_until_the_last_ends():
 
 def test_pool_of_one_runs_in_the_caller_in_order():
     me, order = threading.get_ident(), []
-    with threads.pool(1) as pool:
+    with threads.limited(1), threads.pool(1) as pool:
         futures = [pool.submit(lambda k: (order.append(k), threading.get_ident())[1], k) for k in range(3)]
         assert all(f.done() for f in futures)  # run at once, not queued
         assert [f.result() for f in futures] == [me] * 3 and order == [0, 1, 2]
@@ -54,6 +54,9 @@ def test_pool_of_one_runs_in_the_caller_in_order():
             failed.result()
     with threads.pool(2) as pool:
         assert pool.submit(threading.get_ident).result() != me
+    if threads.processors() > 1:  # one thread chosen, more allowed: a pool thread still
+        with threads.pool(1) as pool:
+            assert pool.submit(threading.get_ident).result() != me
 
 
 def test_same_bytes_with_one_thread(tmp_path, monkeypatch):

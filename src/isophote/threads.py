@@ -76,6 +76,9 @@ class _InCaller(Executor):
 
 
 def pool(n: int):
-    """An executor of ``n`` threads: a ThreadPoolExecutor, or for one thread the caller's
-    own (calls run at once, in submission order; same results)."""
-    return ThreadPoolExecutor(max_workers=n) if n > 1 else _InCaller()
+    """An executor of ``n`` threads: a ThreadPoolExecutor; where the process may use one
+    thread (a limit, or one processor), the caller's own (calls run at once, in submission
+    order; same results). A stage that merely chose one thread keeps its pool thread:
+    memory peaks differ between glibc's main heap and a thread's arena, and the encoder's
+    budget (tests/encoder/test_encode_budget.py) was measured on the latter."""
+    return ThreadPoolExecutor(max_workers=n) if n > 1 or available() > 1 else _InCaller()
