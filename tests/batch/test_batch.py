@@ -1,5 +1,6 @@
 """isophote batch, the parts that need no worker: INPUT expansion and natural sort,
-deliveries and the --fit geometry, the missing-Dask error, the lazy API."""
+deliveries and the --fit geometry, the missing-Dask error, the lazy API, the threads an
+item may use and the order items start in."""
 
 import builtins
 import subprocess
@@ -142,3 +143,49 @@ def test_cli_bad_options_are_one_line(tmp_path, capsys):
     assert main(["batch", str(tmp_path / "nope.png"), "-o", str(tmp_path / "out")]) == 2
     assert capsys.readouterr().err.strip() == f"isophote: {tmp_path / 'nope.png'}: no such file or folder"
     assert not (tmp_path / "out" / "manifest.json").exists()  # nothing is written before the options are good
+
+
+def test_item_threads_are_the_workers_share(monkeypatch):
+    from isophote import threads
+    from isophote.batch.item import item_threads
+
+    monkeypatch.setattr(threads, "processors", lambda: 8)
+    assert item_threads({"threads": 3, "slots": 8}) == 3  # fixed by the caller
+    assert [item_threads({"slots": k}) for k in (1, 2, 3, 8, 16)] == [8, 4, 2, 1, 1]
+    assert item_threads({}) is None and item_threads({"slots": None, "threads": None}) is None
+
+
+def test_slots_per_machine():
+    from concurrent.futures import ThreadPoolExecutor
+
+    from isophote.batch.run import _processors, slots
+
+    assert slots(None, 3) == 3 and slots(None) == len(_processors())
+    with ThreadPoolExecutor(max_workers=5) as pool:
+        assert slots(pool) == 5
+
+    class Client:  # what distributed's Client.scheduler_info() says of its workers
+        def scheduler_info(self):
+            return {"workers": {"tcp://a:1": {"host": "a", "nthreads": 2}, "tcp://a:2": {"host": "a", "nthreads": 2},
+                                "tcp://b:1": {"host": "b", "nthreads": 1}}}
+
+    class Dask:
+        _client = Client()
+
+    assert slots(Dask()) == 4  # host a runs four items at once
+    assert slots(object()) is None  # an executor that does not say: no limit
+
+
+def test_largest_items_start_first(tmp_path):
+    from isophote.batch.run import plan
+
+    # frame_1 is small, frame_2 large, frame_3 and frame_4 of one size, frame_4 the more detailed
+    _frame(tmp_path / "frame_1.png", 32, 24)
+    _frame(tmp_path / "frame_2.png", 96, 72)
+    _frame(tmp_path / "frame_3.png", 64, 48)
+    rng = np.random.default_rng(1)
+    write_image(tmp_path / "frame_4.png", rng.uniform(0, 255, (48, 64, 3)))
+    jobs, items, _ = plan([str(tmp_path)], tmp_path / "out", "phone", preset=None, encode=None, format="png",
+                          depth=8, fit="pad", pad=(0, 0, 0), metrics=False)
+    assert [j["stem"] for j in jobs] == ["frame_2", "frame_4", "frame_3", "frame_1"]
+    assert list(items) == ["frame_1", "frame_2", "frame_3", "frame_4"]  # the manifest keeps the input order

@@ -92,6 +92,11 @@ def test_same_bytes_two_workers_and_dask(reference, frames, tmp_path):
     ref = _files(reference)
     s = isophote.batch([str(frames)], str(tmp_path / "pool2"), deliver=DELIVER, pad=(255, 255, 255), workers=2)
     assert s.made == N and _files(tmp_path / "pool2") == ref
+    # one worker: its items use every processor; two: each its share (the bytes are the same)
+    from isophote.threads import processors
+
+    assert {r["threads"] for r in _manifest(reference).values()} == {processors()}
+    assert {r["threads"] for r in _manifest(tmp_path / "pool2").values()} == {max(1, processors() // 2)}
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:

@@ -869,8 +869,8 @@ def test_channels_one_at_a_time_when_memory_is_short(monkeypatch):
     img = skimage.data.astronaut()[100:164, 150:230]
     both = dumps(isophote.encode(img, preset="paper"))
     seen = []
-    real = E.ThreadPoolExecutor
-    monkeypatch.setattr(E, "ThreadPoolExecutor", lambda max_workers: seen.append(max_workers) or real(max_workers))
+    real = E.threads.pool
+    monkeypatch.setattr(E.threads, "pool", lambda n: seen.append(n) or real(n))
     monkeypatch.setattr(E, "available_memory", lambda: 1000)
     assert dumps(isophote.encode(img, preset="paper")) == both
     assert seen[0] == 1  # the channels' pool

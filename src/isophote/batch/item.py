@@ -16,8 +16,10 @@ import hashlib
 import math
 import os
 import signal
+import socket
 import time
 
+from .. import threads
 from ..errors import IsophoteError
 
 # Test hook: "STEM:MARKER" in this environment variable of the batch's process (passed to
@@ -54,22 +56,52 @@ def _kill_hook(stem: str, spec) -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 
 
+def _run_queue_seconds() -> float | None:
+    """Seconds this thread has spent ready to run but waiting for a processor (other work
+    on the machine took it): Linux's schedstat; None where unknown."""
+    try:
+        with open("/proc/thread-self/schedstat") as f:
+            return int(f.read().split()[1]) / 1e9
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def _file_entry(path: str, outdir: str, seconds: float, **extra) -> dict:
     return dict(path=os.path.relpath(path, outdir), sha256=sha256_file(path), bytes=os.path.getsize(path),
                 seconds=round(seconds, 4), **extra)
 
 
+def item_threads(job: dict) -> int | None:
+    """Threads the item may use: ``threads`` where the batch fixed it; else this worker's
+    share of its machine, the processors it may use over ``slots`` (the items its machine
+    runs at once: one thread each on a machine with as many slots as processors); None
+    (no limit) where neither is known."""
+    if job.get("threads"):
+        return int(job["threads"])
+    if job.get("slots"):
+        return max(1, threads.processors() // int(job["slots"]))
+    return None
+
+
 def process(job: dict) -> dict:
     """Run one item. ``job``: input, stem, outdir, encode (resolved EncodeOptions fields),
     need_master, outputs (a list of delivery specs: name, width, height, fit, pad, depth,
-    format), metrics. Returns the item's results: ``status`` "ok" with the master and the
-    outputs written, or "failed" with a one-line ``reason`` (bad input, bad options, a
-    write that failed). Anything else (a bug) propagates, and the batch records it."""
+    format), metrics, and threads or slots (:func:`item_threads`). Returns the item's
+    results: ``status`` "ok" with the master and the outputs written, or "failed" with a
+    one-line ``reason`` (bad input, bad options, a write that failed). Anything else (a
+    bug) propagates, and the batch records it."""
     _kill_hook(job["stem"], job.get("kill"))
     t0, started, cpu = time.perf_counter(), time.time(), time.process_time()
+    n_threads = item_threads(job)
+    waited = _run_queue_seconds()
     try:
-        out = _process(job, t0)
+        with threads.limited(n_threads):
+            out = _process(job, t0)
+        if waited is not None and n_threads == 1:  # then all of the item ran on this thread
+            out["run_queue_seconds"] = round(_run_queue_seconds() - waited, 3)
         out["started"], out["finished"] = round(started, 3), round(time.time(), 3)  # Unix time
+        out["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+        out["threads"] = n_threads or threads.processors()
         # the worker process's processor time over the item (all its threads; a worker that
         # runs items in threads of one process, as Dask's threads do, counts its neighbours')
         out["cpu_seconds"] = round(time.process_time() - cpu, 3)

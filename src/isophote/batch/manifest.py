@@ -11,7 +11,9 @@
                                                                 depth, format}}},
                       "metrics": {"psnr": DB, "ssimulacra2": SCORE},   # with --metrics
                       "attempts": N, "seconds": S, "cpu_seconds": S,    # the worker's
-                      "started": T, "finished": T}}}                     # Unix time
+                      "started": T, "finished": T,                       # Unix time
+                      "worker": "HOST:PID", "threads": N,                # who ran it
+                      "run_queue_seconds": S}}}   # one-thread items: waits for a processor
 
 It is rewritten atomically (a temporary file renamed into place) each time an item
 finishes, so a killed batch leaves the last complete manifest. An item's master is fresh

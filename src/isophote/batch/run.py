@@ -73,7 +73,7 @@ class Summary:
 
 def batch(inputs, outdir, deliver=DEFAULT_DELIVERIES, *, executor=None, workers=None, preset=None,
           encode=None, format="png", depth=8, fit=DEFAULT_FIT, pad=(0, 0, 0), metrics=False,
-          retries=RETRIES, max_in_flight=64, pin=False, progress=None) -> Summary:
+          retries=RETRIES, max_in_flight=64, pin=False, item_threads=None, progress=None) -> Summary:
     """Encode every input into ``outdir/{stem}.isoph`` and render every delivery into
     ``outdir/{delivery}/{stem}.{format}``; record it all in ``outdir/manifest.json``.
 
@@ -87,6 +87,10 @@ def batch(inputs, outdir, deliver=DEFAULT_DELIVERIES, *, executor=None, workers=
     metrics : also measure PSNR and SSIMULACRA2 of each master's 1x render.
     pin : give each of our pool's workers a processor of its own (an item then runs on one
         processor: its threads share it); for many workers on few processors.
+    item_threads : threads each item may use; None = its worker's share of its machine's
+        processors (one thread when a machine runs as many items at once as it has
+        processors; all of them when it runs one): see :func:`slots`. The bytes are the
+        same whatever the count.
     progress : a tqdm bar on stderr; None = only when stderr is a terminal.
 
     Bad inputs do not stop the batch: they are in ``Summary.failed`` and the manifest.
@@ -110,6 +114,9 @@ def batch(inputs, outdir, deliver=DEFAULT_DELIVERIES, *, executor=None, workers=
         save()
         bar.update(1)
 
+    at_once = slots(executor, workers)
+    for job in jobs:
+        job["slots"], job["threads"] = at_once, item_threads
     try:
         if executor is None:
             folders = sorted({sp["name"] for j in jobs for sp in j["outputs"]})
@@ -120,6 +127,25 @@ def batch(inputs, outdir, deliver=DEFAULT_DELIVERIES, *, executor=None, workers=
         bar.close()
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def slots(executor, workers=None) -> int | None:
+    """Items one machine runs at once on ``executor`` (None: our own pool of ``workers``):
+    our pool's workers; a thread or process pool's ``_max_workers``; on Dask, the most
+    worker threads on one host; None where the executor does not say."""
+    if executor is None:
+        return max(1, int(workers or len(_processors())))
+    n = getattr(executor, "_max_workers", None)
+    if isinstance(n, int):
+        return max(1, n)
+    client = getattr(executor, "_client", None)  # distributed's ClientExecutor
+    try:
+        per_host = {}
+        for w in client.scheduler_info()["workers"].values():
+            per_host[w.get("host")] = per_host.get(w.get("host"), 0) + int(w.get("nthreads", 1))
+        return max(per_host.values()) if per_host else None
+    except Exception:  # noqa: BLE001 - not Dask, or it cannot tell: no limit
+        return None
 
 
 def _bar(total, done, progress):
@@ -183,8 +209,24 @@ def plan(inputs, outdir, deliver, *, preset, encode, format, depth, fit, pad, me
         size = image_size(path)
         jobs.append(dict(input=path, stem=s, outdir=outdir, sha256=sha, encode=enc, need_master=need_master,
                          outputs=todo, metrics=bool(metrics), kill=os.environ.get(KILL_HOOK),
-                         budget=memory.item_budget(size[0] * size[1] if size else 0, largest)))
+                         budget=memory.item_budget(size[0] * size[1] if size else 0, largest),
+                         cost=_cost(path, size, need_master, todo)))
+    # largest first, so that the run does not end on one worker finishing a big item while
+    # the others are idle (stable: equal items keep the input order)
+    jobs.sort(key=lambda j: j["cost"], reverse=True)
     return jobs, items, summary
+
+
+def _cost(path, size, need_master, todo) -> tuple:
+    """The order in which jobs start (largest first): the pixels to encode and render, then
+    the input's bytes (among frames of one size, the more detailed compress less and take
+    longer to encode)."""
+    pixels = (size[0] * size[1] if size and need_master else 0) + sum(sp["width"] * sp["height"] for sp in todo)
+    try:
+        nbytes = os.path.getsize(path)
+    except OSError:
+        nbytes = 0
+    return (pixels, nbytes if need_master else 0)
 
 
 def _pad(pad) -> list:
@@ -233,9 +275,12 @@ def merge(old, job, result) -> dict:
     rec.pop("reason", None)
     if "input_sha256" in result:
         rec["input_sha256"] = result["input_sha256"]
-    for key in ("width", "height", "master", "metrics", "started", "finished", "cpu_seconds"):
+    for key in ("width", "height", "master", "metrics", "started", "finished", "cpu_seconds", "worker",
+                "threads", "run_queue_seconds"):
         if key in result:
             rec[key] = result[key]
+    if "run_queue_seconds" not in result:
+        rec.pop("run_queue_seconds", None)  # an earlier run's, not this one's
     rec["outputs"] = dict(rec.get("outputs") or {}, **result["outputs"])
     return M.normalised(rec)
 

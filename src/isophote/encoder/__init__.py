@@ -17,6 +17,7 @@ import numpy as np
 from ._kernels.anchors import joint_reach
 from ..shared.grid import QUANT
 from ._kernels.fit import QUANT as FIT_QUANT
+from .. import threads
 from ..colour import rgb_to_yuv
 from ..errors import InputError
 from ..limits import MAX_PIXELS
@@ -118,7 +119,7 @@ def _encode_held(held: list, depth: int, opts: EncodeOptions) -> VectorImage:
     eps = opts.noise if opts.noise is not None else (0.5 if depth == 8 else 0.5 / 257.0)
     opts = adapt_steps(opts, planes[0][1])  # finer levels on smooth photographs (noise.py)
     memory = parse_memory(opts.memory)  # refused before any work
-    with ThreadPoolExecutor(max_workers=channel_workers(h * w, memory)) as pool:
+    with threads.pool(channel_workers(h * w, memory)) as pool:
         channels = list(pool.map(lambda p: encode_channel(p[0], p[1], eps, opts), planes))
     return VectorImage(width=w, height=h, colour=colour, channels=tuple(channels), source_depth=depth)
 
@@ -151,7 +152,10 @@ def available_memory() -> int | None:
 def channel_workers(pixels: int, memory: int | None = None) -> int:
     """Channels encoded at a time: two (each also uses threads of its own), or one when two
     would need more than MEMORY_SHARE of the available memory or more than the budget
-    ``memory`` (bytes). The output is the same bytes either way."""
+    ``memory`` (bytes), or when this process may use one thread (isophote.threads). The
+    output is the same bytes either way."""
+    if threads.available() < 2:
+        return 1
     if memory is not None and PAIR_BYTES_PER_PIXEL_TEXTURED * pixels > memory:
         return 1
     avail = available_memory()
@@ -168,7 +172,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
     iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), STRIP_WORKERS)
     del plane, eps
-    if overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
+    if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
             tree = side.submit(build_hierarchy, iso, levels)
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))

@@ -37,12 +37,12 @@ The chain layout and the coordinate convention are those of :mod:`isophote.model
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .. import threads
 from ._kernels.fit import fit_many_kernel
 
 __all__ = ["fit_polyline", "fit_many", "chain_distance"]
@@ -231,11 +231,7 @@ PARALLEL_POINTS = 20_000
 
 def _workers() -> int:
     """Threads for fit_many: the processors this process may use, at most 8."""
-    try:
-        n = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        n = os.cpu_count() or 1
-    return max(1, min(n, 8))
+    return threads.available(8)
 
 
 def _eval_chain(chain, seg, t):

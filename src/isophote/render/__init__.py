@@ -19,11 +19,11 @@ Memory is estimated and checked before anything is allocated (limits_render.py).
 from __future__ import annotations
 
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from .. import threads
 from ..colour import YUV_TO_RGB, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
@@ -147,8 +147,9 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
     # cores busy to the end. Above 1x the first channels' strips keep the cores busy while
     # the last field is computed, and a third concurrent field only contends.
     workers = len(names) if max(vp.kx, vp.ky) / vp.s <= 1.0 + 1e-9 else min(2, len(names))
+    workers = threads.available(workers)
     ready = {}
-    with ThreadPoolExecutor(max_workers=workers) as pool:
+    with threads.pool(workers) as pool:
         def setup(ch):
             cl, cache = channel_state(vi, ch, vp, opts, prep)
             xs, ys = sample_positions(vp, cl.level.r)

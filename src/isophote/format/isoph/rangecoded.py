@@ -4,11 +4,11 @@ with what each of its error statuses means."""
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ... import threads
 from ...errors import FormatError
 from ..limits import CAP_VALUE_LIMIT, COORD_LIMIT, FORMAT_VERSION, MAX_ANCHOR_SHIFT, MAX_GRID_SHIFT
 from ..validate import check_semantics
@@ -22,9 +22,9 @@ assert entropy.LIMIT == COORD_LIMIT == CAP_VALUE_LIMIT
 
 def map_channels(fn, items, n_segments):
     """[fn(x) for x in items], in threads for big images (the kernels release the GIL)."""
-    if n_segments < PARALLEL_SEGMENTS or len(items) < 2:
+    if n_segments < PARALLEL_SEGMENTS or len(items) < 2 or threads.available() < 2:
         return [fn(x) for x in items]
-    with ThreadPoolExecutor(max_workers=min(len(items), os.cpu_count() or 1, 4)) as pool:
+    with ThreadPoolExecutor(max_workers=threads.available(min(len(items), 4))) as pool:
         return list(pool.map(fn, items))
 
 
