@@ -170,7 +170,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     memory = parse_memory(opts.memory)
     plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
     # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
-    iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), STRIP_WORKERS)
+    iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS))
     del plane, eps
     if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
