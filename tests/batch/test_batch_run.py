@@ -181,7 +181,11 @@ def test_ctrl_c_stops_cleanly_and_rerun_resumes(frames, tmp_path):
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "isophote", "batch", str(inputs), "-o", str(out), "--deliver", "phone", "--workers", "1"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    # Ctrl-C's default action in the child whatever ours is: a test run started in the
+    # background of a non-interactive shell (`make test &`) ignores SIGINT, children inherit
+    # that, and Python then installs no KeyboardInterrupt handler at all
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # the first item may compile every kernel (a clean clone, a cold numba cache): minutes on
     # a loaded machine, so the wait is for the first finished item, not for a fixed time
     deadline, seen = time.time() + 900, False
