@@ -6,8 +6,8 @@ shuffled with a fixed seed), C at a time, from a cold cache; then the same N aga
 Reports p50/p95/p99 latency, 503s, the server's cache hit rate and its peak RSS; and, in
 process, the time of one tile at each zoom against a peer measured in the same run (Pillow:
 crop the original raster's region and resize it with Lanczos to the tile, as a raster tile
-server would), which shows what bounds the latency: today a tile's render computes the
-distance grid over the whole canvas at the tile's scale, whatever the tile's size.
+server would), which shows what bounds the latency zoom by zoom (benchmarks/results/render_scale.md
+has where a render's time goes).
 
     python benchmarks/serve_load.py MASTER.isoph[=ORIGINAL] ... [--tiles 500] [--concurrency 4]
 
