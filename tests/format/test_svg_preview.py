@@ -235,17 +235,10 @@ def test_preview_in_headless_chromium(scene, tmp_path):
     for crisp, floor in ((True, 42.0), (False, 28.0)):
         path = tmp_path / f"scene{int(crisp)}.svg"
         svg.save_svg(scene, path, crisp=crisp)
-        shot = tmp_path / f"shot{int(crisp)}.png"
-        cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-               "--disable-background-networking", "--disable-component-update", "--disable-sync",
-               "--hide-scrollbars", "--force-device-scale-factor=1", "--force-color-profile=srgb",
-               f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}",
-               f"--window-size={scene.width},{scene.height}", path.as_uri()]
-        try:
-            subprocess.run(cmd, check=True, capture_output=True, timeout=120, env={**os.environ, "HOME": str(tmp_path)})
-        except (subprocess.CalledProcessError, subprocess.TimeoutExpired) as e:
-            pytest.skip(f"chromium could not take a screenshot here: {e}")
-        shown = _png_pixels(shot.read_bytes())[: scene.height, : scene.width]
+        shown = _chromium_shot(exe, path, scene.width, scene.height, tmp_path)
+        if shown is None:
+            pytest.skip("chromium could not take a screenshot here")
+        shown = shown[: scene.height, : scene.width]
         assert shown.shape == flat.shape
         assert np.abs(shown - flat)[inside].max() <= 2.0
         assert _psnr(shown, flat) >= floor, (crisp, _psnr(shown, flat))
