@@ -172,6 +172,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
     iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS))
     del plane, eps
+    contour_level, base_band = iso.level.astype(np.int32), iso.base_band
     if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
             tree = side.submit(build_hierarchy, iso, levels)
@@ -179,13 +180,21 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
             tree = tree.result()
     else:  # one after the other: their temporaries do not add up (same result)
         tree = build_hierarchy(iso, levels)
-        points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
+        # the fit needs only the points, their border flags, the fitter's tolerances (made
+        # in place: this iso is ours) and the reaches: the grid, the bands and the samples go
+        tol = fit_tolerances(iso.tol, iso.tol)
+        reach = _joint_reach(iso, tol)
+        points, offsets, border = iso.points, iso.offsets, iso.border
+        del iso
+        points, offsets, border = fit_loops(points, offsets, border, tol, reach, opts.snap,
+                                            fit_batch_points(memory))
+        del tol, reach
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(
         name=name,
         levels=levels,
-        contour_level=iso.level.astype(np.int32),
+        contour_level=contour_level,
         offsets=offsets,
         points=points,
         border=border,
@@ -194,7 +203,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
         cap_contour=tree.cap_contour,
         cap_xy=np.round(tree.cap_xy * q) / q,
         cap_value=np.round(tree.cap_value / cap_step) * cap_step,
-        base_band=iso.base_band,
+        base_band=base_band,
     )
 
 
@@ -223,34 +232,53 @@ _JOINT_ROUNDING = 0.5 / FIT_QUANT * np.sqrt(2.0)
 
 def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     """Fit every loop: isoline stretches become fitted Bezier runs, border stretches straight
-    segments. Returns (points, offsets, border) in the Channel layout.
+    segments. Returns (points, offsets, border) in the Channel layout."""
+    if iso.n_loops == 0:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
+    tol = fit_tolerances(iso.tol, np.empty_like(iso.tol))
+    return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_reach(iso, tol), snap, max_points)
+
+
+CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)
+
+
+def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The fitter's tolerances into ``out`` (which may be ``tol``): the ribbon less what the
+    file's rounding may move (_ROUNDING), at least a quarter of it."""
+    for a in range(0, tol.shape[0], CHUNK):
+        t = tol[a : a + CHUNK]
+        np.maximum(t - _ROUNDING, 0.25 * t, out=out[a : a + CHUNK])
+    return out
+
+
+def fit_loops(points, offs, border, tol, reach, snap: float, max_points: int | None = None):
+    """Fit the loops of an Isolines (its points, offsets and border flags) given the fitter's
+    tolerances (fit_tolerances) and the joints' reaches (_joint_reach, before the joint
+    rounding; capped here, in place). Returns (points, offsets, border) in the Channel layout.
 
     Each loop's chain depends on its own polyline, tolerances and joint reaches alone (the
     reaches, which look at the crossings of other loops, are found first for all), so the
     loops are fitted in batches of at most ``max_points`` points (None: one batch) with the
     same result: batches bound the fit's temporaries (encoder/budget.py)."""
-    if iso.n_loops == 0:
+    n_loops = offs.shape[0] - 1
+    if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    # in place: these are whole-channel arrays (8 bytes a point each)
-    tol = iso.tol - _ROUNDING
-    np.maximum(tol, 0.25 * iso.tol, out=tol)
-    reach = _joint_reach(iso, tol)
-    cap = tol - _JOINT_ROUNDING
-    np.maximum(cap, 0.0, out=cap)
-    np.minimum(reach, cap, out=reach)
-    del cap
-    offs = iso.offsets
+    for a in range(0, tol.shape[0], CHUNK):  # a joint stays within its point's tolerance
+        r = reach[a : a + CHUNK]
+        cap = tol[a : a + CHUNK] - _JOINT_ROUNDING
+        np.maximum(cap, 0.0, out=cap)
+        np.minimum(r, cap, out=r)
     if max_points is None or offs[-1] <= max_points:
-        return _fit_batch(iso.points, offs, iso.border, tol, reach, snap)
+        return _fit_batch(points, offs, border, tol, reach, snap)
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
-                                                          "right") - 1, [iso.n_loops]]))
+                                                          "right") - 1, [n_loops]]))
     cuts = cuts[(cuts >= 0)]
     pts, off, brd, base = [], [np.zeros(1, np.int64)], [], 0
     for i0, i1 in zip(cuts[:-1], cuts[1:]):
         if i1 <= i0:
             continue
         o0, o1 = offs[i0], offs[i1]
-        p, o, b = _fit_batch(iso.points[o0:o1], offs[i0 : i1 + 1] - o0, iso.border[o0:o1],
+        p, o, b = _fit_batch(points[o0:o1], offs[i0 : i1 + 1] - o0, border[o0:o1],
                              tol[o0:o1], reach[o0:o1], snap)
         pts.append(p)
         off.append(o[1:] + base)
@@ -359,10 +387,7 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     of the crossings near S only those of the nearest one's level (contours of two levels
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
-    counts = np.diff(iso.offsets)
-    level = np.repeat(iso.level.astype(np.int32), counts)  # int32: 8 bytes a point less each
-    loop = np.repeat(np.arange(counts.shape[0], dtype=np.int32), counts)
-    return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), level, loop, tol,
+    return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
                        iso.values.shape[1], ANCHOR_REACH)
 
 

@@ -61,15 +61,25 @@ def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):
 
 
 def segment_table(iso: Isolines):
-    """Segments as (x0, y0, x1, y1, loop) arrays and their bucketing by half-pixel grid row."""
+    """Segments as (x0, y0, x1, y1, loop) arrays and their bucketing by half-pixel grid row.
+
+    x0 and y0 are views of the points; loop and the row order are int32 (a channel's points
+    and loops are far below 2**31): 24 bytes a point in all, the hierarchy's largest table."""
     p = iso.points
-    n = p.shape[0]
-    nxt = np.arange(1, n + 1)
-    nxt[iso.offsets[1:] - 1] = iso.offsets[:-1]
-    x0, y0, x1, y1 = p[:, 0], p[:, 1], p[nxt, 0], p[nxt, 1]
-    seg_loop = np.repeat(np.arange(iso.n_loops), np.diff(iso.offsets))
+    x0, y0 = p[:, 0], p[:, 1]
+    ends, starts = iso.offsets[1:] - 1, iso.offsets[:-1]
+    x1 = np.empty(p.shape[0])
+    y1 = np.empty(p.shape[0])
+    x1[:-1], y1[:-1] = x0[1:], y0[1:]
+    x1[ends], y1[ends] = x0[starts], y0[starts]
+    seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
     n_rows = max(iso.band.shape[0] - 3, 1)
-    row = np.clip(np.floor(np.minimum(y0, y1) * 2.0).astype(np.int64), 0, n_rows - 1)
+    t = np.minimum(y0, y1)
+    t *= 2.0
+    np.floor(t, out=t)
+    np.clip(t, 0, n_rows - 1, out=t)
+    row = t.astype(np.int32)
+    del t
     row_start, row_order = bucket_rows(row, n_rows)
     return x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows
 

@@ -246,7 +246,7 @@ def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_star
 
 @njit(cache=True, nogil=True)
 def bucket_rows(row, n_rows):
-    """Counting sort of row indices in [0, n_rows): (row_start (n_rows + 1,), row_order), equal
+    """Counting sort of row indices in [0, n_rows): (row_start (n_rows + 1,) int64, row_order int32), equal
     to np.argsort(row, kind="stable") and np.searchsorted(row[row_order], arange(n_rows + 1))."""
     row_start = np.zeros(n_rows + 1, np.int64)
     for s in range(row.shape[0]):
@@ -254,7 +254,7 @@ def bucket_rows(row, n_rows):
     for k in range(n_rows):
         row_start[k + 1] += row_start[k]
     fill = row_start[:-1].copy()
-    row_order = np.empty(row.shape[0], np.int64)
+    row_order = np.empty(row.shape[0], np.int32)  # segment indices: a channel's are far below 2**31
     for s in range(row.shape[0]):
         row_order[fill[row[s]]] = s
         fill[row[s]] += 1
