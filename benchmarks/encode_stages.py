@@ -61,7 +61,9 @@ def stages(plane, name, opts, memory, report):
                                                     "band", "values", "offsets"))
         print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | |")
     stage("hierarchy", lambda: hierarchy.build_hierarchy(iso, lev))
-    stage("fit (batches)", lambda: E.fit_isolines(iso, opts.snap, budget.fit_batch_points(memory)))
+    held = [iso]
+    del iso
+    stage("fit (reaches, then batches)", lambda: E.fit_held(held, opts.snap, budget.fit_batch_points(memory)))
 
 
 def main(argv=None) -> int:

@@ -180,15 +180,9 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
             tree = tree.result()
     else:  # one after the other: their temporaries do not add up (same result)
         tree = build_hierarchy(iso, levels)
-        # the fit needs only the points, their border flags, the fitter's tolerances (made
-        # in place: this iso is ours) and the reaches: the grid, the bands and the samples go
-        tol = fit_tolerances(iso.tol, iso.tol)
-        reach = _joint_reach(iso, tol)
-        points, offsets, border = iso.points, iso.offsets, iso.border
+        held = [iso]
         del iso
-        points, offsets, border = fit_loops(points, offsets, border, tol, reach, opts.snap,
-                                            fit_batch_points(memory))
-        del tol, reach
+        points, offsets, border = fit_held(held, opts.snap, fit_batch_points(memory))
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(
@@ -237,6 +231,19 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
     tol = fit_tolerances(iso.tol, np.empty_like(iso.tol))
     return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_reach(iso, tol), snap, max_points)
+
+
+def fit_held(held: list, snap: float, max_points: int | None = None):
+    """fit_isolines of the one Isolines in ``held``, which is emptied: its tolerances become
+    the fitter's in place, and once the joint reaches are found its grid, bands and samples
+    are dropped (no one else may hold it), so the fit holds only the points, their border
+    flags, tolerances and reaches (same result)."""
+    iso = held.pop()
+    tol = fit_tolerances(iso.tol, iso.tol)
+    reach = _joint_reach(iso, tol)
+    points, offsets, border = iso.points, iso.offsets, iso.border
+    del iso
+    return fit_loops(points, offsets, border, tol, reach, snap, max_points)
 
 
 CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)

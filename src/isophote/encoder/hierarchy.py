@@ -61,29 +61,28 @@ def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):
 
 
 def segment_table(iso: Isolines):
-    """Segments as (x0, y0, x1, y1, loop) arrays and their bucketing by half-pixel grid row.
+    """Segments as (x, y, nxt, loop) arrays and their bucketing by half-pixel grid row:
+    segment s runs from point s, (x[s], y[s]), to point nxt[s] of its loop.
 
-    x0 and y0 are views of the points; loop and the row order are int32 (a channel's points
-    and loops are far below 2**31): 24 bytes a point in all, the hierarchy's largest table."""
+    x and y are views of the points; nxt, loop and the row order are int32 (a channel's
+    points and loops are far below 2**31): 12 bytes a point in all."""
     p = iso.points
-    x0, y0 = p[:, 0], p[:, 1]
-    ends, starts = iso.offsets[1:] - 1, iso.offsets[:-1]
-    x1 = np.empty(p.shape[0])
-    y1 = np.empty(p.shape[0])
-    x1[:-1], y1[:-1] = x0[1:], y0[1:]
-    x1[ends], y1[ends] = x0[starts], y0[starts]
+    n = p.shape[0]
+    x, y = p[:, 0], p[:, 1]
+    nxt = np.arange(1, n + 1, dtype=np.int32)
+    nxt[iso.offsets[1:] - 1] = iso.offsets[:-1]
     seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
     n_rows = max(iso.band.shape[0] - 3, 1)
-    t = np.minimum(y0, y1)
-    t *= 2.0
-    np.floor(t, out=t)
-    np.clip(t, 0, n_rows - 1, out=t)
-    row = t.astype(np.int32)
-    del t
+    row = np.empty(n, np.int32)
+    for a in range(0, n, ROW_CHUNK):  # the row of the segment's upper end, clamped
+        t = np.minimum(y[a : a + ROW_CHUNK], y[nxt[a : a + ROW_CHUNK]])
+        t *= 2.0
+        row[a : a + ROW_CHUNK] = np.clip(np.floor(t), 0, n_rows - 1)
     row_start, row_order = bucket_rows(row, n_rows)
-    return x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows
+    return x, y, nxt, seg_loop, row_start, row_order, n_rows
 
 
+ROW_CHUNK = 1 << 20  # segments segment_table rows at a time (bounds its temporaries)
 LEVEL_BATCH = 1 << 20  # segments a call of region_levels takes (bounds its copies)
 
 
@@ -149,21 +148,22 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     cap_xy = np.column_stack([(cc - 1) * 0.5, (r - 1) * 0.5]).astype(np.float64).reshape(-1, 2)
 
     area = loop_areas(iso)
-    x0, y0, x1, y1, seg_loop, row_start, row_order, n_rows = segment_table(iso)
+    x, y, nxt, seg_loop, row_start, row_order, n_rows = segment_table(iso)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
-    parent, seen = sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, lev_loop, c, n_rows)
-    cand = np.flatnonzero(~iso.border & (y0 != y1) & ~seen[seg_loop])
+    parent, seen = sweep_enclosing(x, y, nxt, seg_loop, row_start, row_order, lev_loop, c, n_rows)
+    cand = np.flatnonzero(~seen[seg_loop])
+    cand = cand[~iso.border[cand] & (y[cand] != y[nxt[cand]])]
     has_q, first = np.unique(seg_loop[cand], return_index=True)
     qs = cand[first]
     if qs.size:
         parent[has_q] = innermost_enclosing(
-            0.5 * (x0[qs] + x1[qs]), 0.5 * (y0[qs] + y1[qs]), has_q.astype(np.int64),
-            x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+            0.5 * (x[qs] + x[nxt[qs]]), 0.5 * (y[qs] + y[nxt[qs]]), has_q.astype(np.int64),
+            x, y, nxt, seg_loop, row_start, row_order, area, lev_loop, n_rows,
         )
     cap_contour = innermost_enclosing_rows(
         cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_idx), -1, np.int64),
-        x0, y0, x1, y1, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+        x, y, nxt, seg_loop, row_start, row_order, area, lev_loop, n_rows,
     ) if c else np.full(len(cap_idx), -1, np.int64)
     return Hierarchy(
         parent=parent.astype(np.int32),
