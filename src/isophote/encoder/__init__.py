@@ -25,7 +25,7 @@ from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
-from .hierarchy import build_hierarchy
+from .hierarchy import build_hierarchy, build_hierarchy_held
 from .isolines import Isolines
 from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
 from .strips import strip_isolines
@@ -179,9 +179,9 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
             tree = tree.result()
     else:  # one after the other: their temporaries do not add up (same result)
-        tree = build_hierarchy(iso, levels)
-        held = [iso]
+        held = [iso]  # the grid values go after the caps, the grid after the reaches
         del iso
+        tree = build_hierarchy_held(held, levels)
         points, offsets, border = fit_held(held, opts.snap, fit_batch_points(memory))
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
@@ -395,7 +395,7 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
     return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
-                       iso.values.shape[1], ANCHOR_REACH)
+                       iso.band.shape[1], ANCHOR_REACH)
 
 
 def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.ndarray):
