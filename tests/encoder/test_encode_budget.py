@@ -72,6 +72,35 @@ def test_fit_batches_give_the_chains_of_one_batch():
 
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])
+def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
+    """The encoder's path that drops what it has read (the grid values after the caps, the
+    grid, bands and samples after the joint reaches, the tolerances made the fitter's in
+    place) gives the hierarchy and chains of build_hierarchy and fit_isolines, batched or not."""
+    from isophote.encoder.hierarchy import build_hierarchy, build_hierarchy_held
+
+    opts, levels, grid, grid_eps = _plane_grid(preset)
+
+    def fresh():
+        return find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
+
+    iso = fresh()
+    tree, chains = build_hierarchy(iso, levels), E.fit_isolines(iso, opts.snap)
+    assert iso.n_loops > 50 and np.array_equal(iso.tol, fresh().tol)  # the plain path keeps its input
+    for max_points in (None, 300):
+        held = [fresh()]
+        got = build_hierarchy_held(held, levels)
+        assert len(held) == 1 and held[0].values is None and held[0].band is not None
+        for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
+            a, b = getattr(tree, f), getattr(got, f)
+            assert a.dtype == b.dtype and np.array_equal(a, b), f
+        assert got.n_regions == tree.n_regions
+        fitted = E.fit_held(held, opts.snap, max_points)
+        assert held == []
+        for a, b in zip(chains, fitted):
+            assert a.dtype == b.dtype and np.array_equal(a, b), max_points
+
+
+@pytest.mark.parametrize("preset", ["balanced", "high"])
 def test_bytes_do_not_depend_on_the_budget(monkeypatch, preset):
     """A budget too small for anything at once (MIN_UNIT-sized groups and batches, one
     channel at a time, the hierarchy after the fit) gives the bytes of a large one."""
