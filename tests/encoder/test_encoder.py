@@ -760,11 +760,8 @@ def test_joint_reach_matches_its_twin(which):
     }[which]
     iso = isolines_of(img, preset_levels(5))
     tol = iso.tol * rng.uniform(0.5, 1.0, iso.tol.shape)
-    counts = np.diff(iso.offsets)
-    level = np.repeat(iso.level, counts).astype(np.int64)
-    loop = np.repeat(np.arange(counts.shape[0]), counts)
-    args = (iso.points, iso.below.astype(np.int64), iso.above.astype(np.int64),
-            iso.band.ravel().astype(np.int64), level, loop, tol, iso.values.shape[1], 0.75)
+    args = (iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
+            iso.values.shape[1], 0.75)
     fast, ref = joint_reach(*args), joint_reach_ref(*args)
     assert np.array_equal(fast, ref)
     assert np.all((fast == 0) | (fast == 0.75 * tol))

@@ -33,14 +33,15 @@ def traced(name):
 
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_sweep_parents_equal_ray_parents(name):
-    iso, h, (x0, y0, x1, y1, seg_loop, rs, ro, n_rows) = traced(name)
+    iso, h, (x0, y0, nxt, seg_loop, rs, ro, n_rows) = traced(name)
+    x1, y1 = x0[nxt], y0[nxt]
     cand = np.flatnonzero(~iso.border & (y0 != y1))
     loops, first = np.unique(seg_loop[cand], return_index=True)
     q = cand[first]
     ref = np.full(iso.n_loops, -1, np.int64)
     ref[loops] = innermost_enclosing(
         0.5 * (x0[q] + x1[q]), 0.5 * (y0[q] + y1[q]), loops.astype(np.int64),
-        x0, y0, x1, y1, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+        x0, y0, nxt, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
     )
     assert iso.n_loops > 20
     assert np.array_equal(h.parent, ref)
@@ -49,10 +50,10 @@ def test_sweep_parents_equal_ray_parents(name):
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_cap_contours_by_rows_equal_rays(name):
     """The caps' enclosing contours (innermost_enclosing_rows) are the ray query's."""
-    iso, h, (x0, y0, x1, y1, seg_loop, rs, ro, n_rows) = traced(name)
+    iso, h, (x, y, nxt, seg_loop, rs, ro, n_rows) = traced(name)
     ref = innermost_enclosing(
         h.cap_xy[:, 0].copy(), h.cap_xy[:, 1].copy(), np.full(len(h.cap_xy), -1, np.int64),
-        x0, y0, x1, y1, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+        x, y, nxt, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
     )
     assert len(ref) > 5 and (ref >= 0).any()
     assert np.array_equal(h.cap_contour, ref)

@@ -63,3 +63,23 @@ def test_polyline_areas_known_shapes():
     sq = np.array([[0, 0], [0, 2], [2, 2], [2, 0]], float)  # down first: counter-clockwise
     a = polyline_areas(np.concatenate([tri, sq]), np.array([0, 3, 7]))
     assert np.array_equal(a, [6.0, -4.0])
+
+
+def test_polyline_areas_are_the_shoelace_sums_to_the_bit():
+    """polyline_areas (two arrays a point) gives the bits of the plain formula (every point's
+    successor gathered, the cross products summed in one running sum) on many loops, the
+    hierarchy's tie-breaks depend on it."""
+    rng = np.random.default_rng(9)
+    sizes = rng.integers(1, 40, 300)
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    pts = rng.uniform(-500, 3000, (int(offsets[-1]), 2))
+    nxt = np.arange(1, pts.shape[0] + 1)
+    nxt[offsets[1:] - 1] = offsets[:-1]
+    cross = pts[:, 0] * pts[nxt, 1] - pts[nxt, 0] * pts[:, 1]
+    cs = np.concatenate([[0.0], np.cumsum(cross)])
+    plain = 0.5 * (cs[offsets[1:]] - cs[offsets[:-1]])
+    got = polyline_areas(pts, offsets)
+    assert got.tobytes() == plain.tobytes()
+    one = pts[offsets[7] : offsets[8]]
+    assert got[7] == pytest.approx(0.5 * float(np.dot(one[:, 0], np.roll(one[:, 1], -1))
+                                             - np.dot(np.roll(one[:, 0], -1), one[:, 1])), rel=1e-9, abs=1e-6)

@@ -25,7 +25,7 @@ from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
-from .hierarchy import build_hierarchy
+from .hierarchy import build_hierarchy, build_hierarchy_held
 from .isolines import Isolines
 from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
 from .strips import strip_isolines
@@ -107,20 +107,29 @@ def _encode_held(held: list, depth: int, opts: EncodeOptions) -> VectorImage:
     return_freed_memory()  # glibc: freed strips go back to the system (encoder/budget.py)
     pixels = held.pop()
     h, w, c = pixels.shape
+    # each plane on its own (a copy where it would be a strided view), so that a channel's
+    # plane goes when its channel starts
     if c in (1, 2):
-        colour, planes = "grey", [("Y", pixels[..., 0])]
+        colour, planes = "grey", [("Y", np.ascontiguousarray(pixels[..., 0]))]
     else:
         colour = "yuv"
         yuv = rgb_to_yuv(pixels[..., :3])
-        planes = [(n, yuv[..., i]) for i, n in enumerate("YUV")]
+        planes = [(n, np.ascontiguousarray(yuv[..., i])) for i, n in enumerate("YUV")]
+        del yuv
     if c in (2, 4):
-        planes.append(("A", pixels[..., -1].copy() if c == 4 else pixels[..., -1]))
+        planes.append(("A", np.ascontiguousarray(pixels[..., -1])))
     del pixels
     eps = opts.noise if opts.noise is not None else (0.5 if depth == 8 else 0.5 / 257.0)
     opts = adapt_steps(opts, planes[0][1])  # finer levels on smooth photographs (noise.py)
     memory = parse_memory(opts.memory)  # refused before any work
-    with threads.pool(channel_workers(h * w, memory)) as pool:
-        channels = list(pool.map(lambda p: encode_channel(p[0], p[1], eps, opts), planes))
+    planes = [(n, [p]) for n, p in planes]
+    workers = channel_workers(h * w, memory)
+    # one channel at a time they go last first: the first (Y, the most detailed) is then
+    # encoded beside no other plane (16 bytes a pixel less); the same channels either way
+    order = list(range(len(planes)))[:: -1 if workers == 1 else 1]
+    with threads.pool(workers) as pool:
+        done = dict(zip(order, pool.map(lambda i: encode_channel(planes[i][0], planes[i][1], eps, opts), order)))
+    channels = [done[i] for i in range(len(planes))]
     return VectorImage(width=w, height=h, colour=colour, channels=tuple(channels), source_depth=depth)
 
 
@@ -164,7 +173,10 @@ def channel_workers(pixels: int, memory: int | None = None) -> int:
     return 2
 
 
-def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions) -> Channel:
+def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Channel:
+    """The channel ``name`` of the one plane in ``held``, which is emptied (the plane goes
+    once prepared, when no one else holds it)."""
+    plane = held.pop()
     levels = channel_levels(name, opts)
     cap_step = cap_value_step(eps)
     memory = parse_memory(opts.memory)
@@ -172,20 +184,23 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
     # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
     iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS))
     del plane, eps
+    contour_level, base_band = iso.level.astype(np.int32), iso.base_band
     if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
             tree = side.submit(build_hierarchy, iso, levels)
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
             tree = tree.result()
     else:  # one after the other: their temporaries do not add up (same result)
-        tree = build_hierarchy(iso, levels)
-        points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
+        held = [iso]  # the grid values go after the caps, the grid after the reaches
+        del iso
+        tree = build_hierarchy_held(held, levels)
+        points, offsets, border = fit_held(held, opts.snap, fit_batch_points(memory))
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(
         name=name,
         levels=levels,
-        contour_level=iso.level.astype(np.int32),
+        contour_level=contour_level,
         offsets=offsets,
         points=points,
         border=border,
@@ -194,7 +209,7 @@ def encode_channel(name: str, plane: np.ndarray, eps: float, opts: EncodeOptions
         cap_contour=tree.cap_contour,
         cap_xy=np.round(tree.cap_xy * q) / q,
         cap_value=np.round(tree.cap_value / cap_step) * cap_step,
-        base_band=iso.base_band,
+        base_band=base_band,
     )
 
 
@@ -223,34 +238,66 @@ _JOINT_ROUNDING = 0.5 / FIT_QUANT * np.sqrt(2.0)
 
 def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     """Fit every loop: isoline stretches become fitted Bezier runs, border stretches straight
-    segments. Returns (points, offsets, border) in the Channel layout.
+    segments. Returns (points, offsets, border) in the Channel layout."""
+    if iso.n_loops == 0:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
+    tol = fit_tolerances(iso.tol, np.empty_like(iso.tol))
+    return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_reach(iso, tol), snap, max_points)
+
+
+def fit_held(held: list, snap: float, max_points: int | None = None):
+    """fit_isolines of the one Isolines in ``held``, which is emptied: its tolerances become
+    the fitter's in place, and once the joint reaches are found its grid, bands and samples
+    are dropped (no one else may hold it), so the fit holds only the points, their border
+    flags, tolerances and reaches (same result)."""
+    iso = held.pop()
+    tol = fit_tolerances(iso.tol, iso.tol)
+    reach = _joint_reach(iso, tol)
+    points, offsets, border = iso.points, iso.offsets, iso.border
+    del iso
+    return fit_loops(points, offsets, border, tol, reach, snap, max_points)
+
+
+CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)
+
+
+def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """The fitter's tolerances into ``out`` (which may be ``tol``): the ribbon less what the
+    file's rounding may move (_ROUNDING), at least a quarter of it."""
+    for a in range(0, tol.shape[0], CHUNK):
+        t = tol[a : a + CHUNK]
+        np.maximum(t - _ROUNDING, 0.25 * t, out=out[a : a + CHUNK])
+    return out
+
+
+def fit_loops(points, offs, border, tol, reach, snap: float, max_points: int | None = None):
+    """Fit the loops of an Isolines (its points, offsets and border flags) given the fitter's
+    tolerances (fit_tolerances) and the joints' reaches (_joint_reach, before the joint
+    rounding; capped here, in place). Returns (points, offsets, border) in the Channel layout.
 
     Each loop's chain depends on its own polyline, tolerances and joint reaches alone (the
     reaches, which look at the crossings of other loops, are found first for all), so the
     loops are fitted in batches of at most ``max_points`` points (None: one batch) with the
     same result: batches bound the fit's temporaries (encoder/budget.py)."""
-    if iso.n_loops == 0:
+    n_loops = offs.shape[0] - 1
+    if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    # in place: these are whole-channel arrays (8 bytes a point each)
-    tol = iso.tol - _ROUNDING
-    np.maximum(tol, 0.25 * iso.tol, out=tol)
-    reach = _joint_reach(iso, tol)
-    cap = tol - _JOINT_ROUNDING
-    np.maximum(cap, 0.0, out=cap)
-    np.minimum(reach, cap, out=reach)
-    del cap
-    offs = iso.offsets
+    for a in range(0, tol.shape[0], CHUNK):  # a joint stays within its point's tolerance
+        r = reach[a : a + CHUNK]
+        cap = tol[a : a + CHUNK] - _JOINT_ROUNDING
+        np.maximum(cap, 0.0, out=cap)
+        np.minimum(r, cap, out=r)
     if max_points is None or offs[-1] <= max_points:
-        return _fit_batch(iso.points, offs, iso.border, tol, reach, snap)
+        return _fit_batch(points, offs, border, tol, reach, snap)
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
-                                                          "right") - 1, [iso.n_loops]]))
+                                                          "right") - 1, [n_loops]]))
     cuts = cuts[(cuts >= 0)]
     pts, off, brd, base = [], [np.zeros(1, np.int64)], [], 0
     for i0, i1 in zip(cuts[:-1], cuts[1:]):
         if i1 <= i0:
             continue
         o0, o1 = offs[i0], offs[i1]
-        p, o, b = _fit_batch(iso.points[o0:o1], offs[i0 : i1 + 1] - o0, iso.border[o0:o1],
+        p, o, b = _fit_batch(points[o0:o1], offs[i0 : i1 + 1] - o0, border[o0:o1],
                              tol[o0:o1], reach[o0:o1], snap)
         pts.append(p)
         off.append(o[1:] + base)
@@ -359,11 +406,8 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     of the crossings near S only those of the nearest one's level (contours of two levels
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
-    counts = np.diff(iso.offsets)
-    level = np.repeat(iso.level.astype(np.int32), counts)  # int32: 8 bytes a point less each
-    loop = np.repeat(np.arange(counts.shape[0], dtype=np.int32), counts)
-    return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), level, loop, tol,
-                       iso.values.shape[1], ANCHOR_REACH)
+    return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
+                       iso.band.shape[1], ANCHOR_REACH)
 
 
 def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.ndarray):

@@ -14,8 +14,11 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
 What it does not bound yet: the padded values and bands of a channel (40 bytes a pixel),
-its polylines (about 41 bytes a point, 1-4 points a pixel on textured photographs), the
-hierarchy's and the joint reaches' temporaries; docs/streaming.md says what remains.
+its polylines (about 33 bytes a point, 1-4.5 points a pixel on textured photographs), and
+beside them the hierarchy's and the joint reaches' temporaries (about 12 bytes a point and
+16 a pixel each: the encoder drops the grid values after the caps and the grid after the
+reaches, encoder/hierarchy.py build_hierarchy_held, encoder.fit_held); docs/streaming.md
+says what remains.
 """
 
 from __future__ import annotations
@@ -31,8 +34,11 @@ FIT_SHARE = 0.125
 # pixel at 3.6 points a pixel on the 16 MP mosaic's crops)
 BYTES_PER_FIT_POINT = 80
 # the hierarchy's temporaries (segment table, row buckets, region labels) and the fit's
-# whole-channel ones (joint reaches: tolerances, loop and level per point, the per-sample
-# chains) per polyline point; measured 174 and about 190 bytes a pixel at 3.6 points a pixel
+# whole-channel ones (joint reaches: the fitter's tolerances, the reaches, the per-sample
+# chains) per polyline point, when they run side by side (fit_isolines then copies the
+# tolerances and keeps the grid); measured 174 and about 190 bytes a pixel at 3.6 points a
+# pixel before the int32 tables, 76 and 70 at 4.47 after (benchmarks/results/encode_scale.md):
+# kept as they were, so that the overlap stays a small-image choice
 BYTES_PER_HIERARCHY_POINT = 50
 BYTES_PER_REACH_POINT = 52
 OVERLAP_SHARE = 0.25

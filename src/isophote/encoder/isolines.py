@@ -25,7 +25,7 @@ class Isolines:
     border : (N,) bool, per segment: runs along the image border.
     tol : (N,) float64, ribbon half-width at each point (pixels).
     level : (C,) int32 level index of each loop.
-    above, below : (N,) int64, per segment: the padded-grid samples at either end of the grid edge
+    above, below : (N,) int32, per segment: the padded-grid samples at either end of the grid edge
         its start point lies on (the above one on the segment's left); for border segments the
         below one is padding.
     band : (Hp, Wp) int16 padded band grid; values : (Hp, Wp) float64 padded grid (pad = 0).

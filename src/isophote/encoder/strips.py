@@ -193,8 +193,8 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
     if base and not np.array_equal(frame_levels, np.arange(base)):
         raise RuntimeError("frame loops are not the lowest levels")  # a bug, never input
     if not parts:
-        merged = dict(points=np.zeros((0, 2)), border=np.zeros(0, bool), below=np.zeros(0, np.int64),
-                      above=np.zeros(0, np.int64), tol=np.zeros(0), level=np.zeros(0, np.int32),
+        merged = dict(points=np.zeros((0, 2)), border=np.zeros(0, bool), below=np.zeros(0, np.int32),
+                      above=np.zeros(0, np.int32), tol=np.zeros(0), level=np.zeros(0, np.int32),
                       offsets=np.zeros(1, np.int64))
     else:
         merged = merge_loops(parts)

@@ -77,8 +77,19 @@ def segment_moments(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 def polyline_areas(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """(C,) signed shoelace areas of closed polylines (loop k: ``points[offsets[k]:offsets[k+1]]``,
     its last point joined back to its first)."""
-    nxt = np.arange(1, points.shape[0] + 1)
-    nxt[offsets[1:] - 1] = offsets[:-1]
-    cross = points[:, 0] * points[nxt, 1] - points[nxt, 0] * points[:, 1]
-    cs = np.concatenate([[0.0], np.cumsum(cross)])
-    return 0.5 * (cs[offsets[1:]] - cs[offsets[:-1]])
+    x, y = points[:, 0], points[:, 1]
+    ends, starts = offsets[1:] - 1, offsets[:-1]
+    # cross[k] = x[k] y[next] - x[next] y[k], next the following point of k's loop; two
+    # arrays of a float a point (the loops of a whole channel come here)
+    cross = np.empty(points.shape[0])
+    t = np.empty(points.shape[0])
+    np.multiply(x[:-1], y[1:], out=cross[:-1])
+    np.multiply(x[1:], y[:-1], out=t[:-1])
+    cross[:-1] -= t[:-1]
+    del t
+    cross[ends] = x[ends] * y[starts] - x[starts] * y[ends]
+    np.cumsum(cross, out=cross)
+    before = np.zeros(starts.shape[0])  # the sum over the loops before each
+    after_first = starts > 0
+    before[after_first] = cross[starts[after_first] - 1]
+    return 0.5 * (cross[ends] - before)

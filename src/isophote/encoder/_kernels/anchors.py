@@ -22,53 +22,83 @@ PER_LOOP = 2
 
 
 @njit(cache=True, nogil=True)
-def joint_reach(points, below, above, band, level, loop, tol, wp, frac):
-    """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
+def _nearer_end(points, below, above, band, lev, k, wp):
+    """Crossing k's nearer grid sample S (the lower-numbered one on ties), its city-block
+    distance, and whether S is in the band next to its level ``lev``: the crossings of an
+    edge come in level order (the marching kernel's monotone interpolant), so then none lies
+    between it and S."""
+    lo = below[k]
+    hi = above[k]
+    r = lo // wp
+    a = abs(points[k, 0] - (lo - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
+    r = hi // wp
+    b = abs(points[k, 0] - (hi - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
+    if a < b or (a == b and lo < hi):
+        return lo, a, band[lo] == lev
+    return hi, b, band[hi] == lev + 1
+
+
+@njit(cache=True, nogil=True)
+def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac):
+    """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others.
+
+    Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]. Besides the result
+    the kernel holds 4 bytes a crossing (the per-sample chains' links) and 4 a sample (their
+    heads): a crossing's loop and distance are found again when its sample is visited."""
     n = points.shape[0]
     size = band.shape[0]
     hp = size // wp
-    # the candidates, chained per sample (head, nxt; int32 keeps the per-sample array small)
+    n_loops = offsets.shape[0] - 1
+    # the candidates, chained per sample in point order (head, nxt; int32 keeps them small)
     head = np.full(size, -1, np.int32)
-    nxt = np.full(n, -1, np.int32)
-    near = np.full(n, -1, np.int32)  # a sample index: the grid of MAX_PIXELS has under 2**31
-    dist = np.empty(n)
-    for k in range(n - 1, -1, -1):  # chains in point order
-        lo = below[k]
-        hi = above[k]
-        r = lo // wp
-        a = abs(points[k, 0] - (lo - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
-        r = hi // wp
-        b = abs(points[k, 0] - (hi - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
-        # S, the nearer end (the lower-numbered sample on ties), and whether it is in the band
-        # next to the crossing's level: the crossings of an edge come in level order (the
-        # marching kernel's monotone interpolant), so then none lies between it and S
-        if a < b or (a == b and lo < hi):
-            s, d, next_to = lo, a, band[lo] == level[k]
-        else:
-            s, d, next_to = hi, b, band[hi] == level[k] + 1
-        dist[k] = d
-        r = s // wp
-        inside = 1 < r < hp - 2 and 1 < s - r * wp < wp - 2
-        if d <= frac * tol[k] and next_to and inside:
-            near[k] = s
-            nxt[k] = head[s]
-            head[s] = k
-    reach = np.zeros(n)
-    for k in range(n):
-        s = near[k]
-        if s < 0:
-            continue
-        # k moves if at most one of the sample's candidates of its loop comes before it
-        # (nearer, then first), and its level is the level of the sample's nearest candidate
-        best = head[s]
-        before = 0
+    nxt = np.empty(n, np.int32)  # read only along the chains
+    for lp in range(n_loops - 1, -1, -1):
+        lev = loop_level[lp]
+        for k in range(offsets[lp + 1] - 1, offsets[lp] - 1, -1):
+            s, d, next_to = _nearer_end(points, below, above, band, lev, k, wp)
+            r = s // wp
+            inside = 1 < r < hp - 2 and 1 < s - r * wp < wp - 2
+            if d <= frac * tol[k] and next_to and inside:
+                nxt[k] = head[s]
+                head[s] = k
+    longest = 0
+    for s in range(size):
+        m = 0
         q = head[s]
         while q >= 0:
-            if dist[q] < dist[best]:
-                best = q
-            if loop[q] == loop[k] and (dist[q] < dist[k] or (dist[q] == dist[k] and q < k)):
-                before += 1
+            m += 1
             q = nxt[q]
-        if before < PER_LOOP and level[k] == level[best]:
-            reach[k] = frac * tol[k]
+        longest = max(longest, m)
+    ck = np.empty(longest, np.int64)  # one sample's candidates: point, loop, distance
+    cl = np.empty(longest, np.int64)
+    cd = np.empty(longest)
+    reach = np.zeros(n)
+    for s in range(size):
+        q = head[s]
+        if q < 0:
+            continue
+        r = s // wp
+        sx = (s - r * wp - 1) * 0.5
+        sy = (r - 1) * 0.5
+        m = 0
+        while q >= 0:
+            ck[m] = q
+            cl[m] = np.searchsorted(offsets, q, "right") - 1
+            cd[m] = abs(points[q, 0] - sx) + abs(points[q, 1] - sy)  # _nearer_end's, to the bit
+            m += 1
+            q = nxt[q]
+        # k moves if at most PER_LOOP - 1 of the sample's candidates of its loop come before
+        # it (nearer, then first), and its level is the level of the sample's nearest
+        # candidate (then the first)
+        best = 0
+        for i in range(m):
+            if cd[i] < cd[best]:
+                best = i
+        for i in range(m):
+            before = 0
+            for j in range(m):
+                if cl[j] == cl[i] and (cd[j] < cd[i] or (cd[j] == cd[i] and ck[j] < ck[i])):
+                    before += 1
+            if before < PER_LOOP and loop_level[cl[i]] == loop_level[cl[best]]:
+                reach[ck[i]] = frac * tol[ck[i]]
     return reach

@@ -7,9 +7,12 @@ import numpy as np
 from .anchors import PER_LOOP
 
 
-def joint_reach(points, below, above, band, level, loop, tol, wp, frac):
+def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac):
     """NumPy twin of :func:`joint_reach`."""
     n = points.shape[0]
+    counts = np.diff(offsets)
+    level = np.repeat(np.asarray(loop_level, np.int64), counts)
+    loop = np.repeat(np.arange(counts.shape[0]), counts)
     size = band.shape[0]
 
     def xy(s):

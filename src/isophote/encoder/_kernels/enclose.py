@@ -20,11 +20,12 @@ def _row_of(y, n_rows):
 
 
 @njit(cache=True, nogil=True)
-def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, row_order,
+def innermost_enclosing(px, py, exclude, x, y, nxt, seg_loop, row_start, row_order,
                         area, level, n_rows):
     """For each query point (px[q], py[q]) the innermost loop enclosing it, -1 if none.
 
-    Segments of row k (y in [k/2, (k+1)/2]) are row_order[row_start[k]:row_start[k+1]].
+    Segment s runs from point s, (x[s], y[s]), to point nxt[s] of its loop seg_loop[s]; the
+    segments of row k (y in [k/2, (k+1)/2]) are row_order[row_start[k]:row_start[k+1]].
     exclude[q] is a loop id the query ignores (its own loop) or -1.
     """
     nq = px.shape[0]
@@ -41,12 +42,13 @@ def innermost_enclosing(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, ro
             lp = seg_loop[s]
             if lp == exclude[q]:
                 continue
-            ya = y0[s]
-            yb = y1[s]
+            e = nxt[s]
+            ya = y[s]
+            yb = y[e]
             if ya == yb:
                 continue
             if (ya <= py[q] < yb) or (yb <= py[q] < ya):
-                xc = x0[s] + (py[q] - ya) * (x1[s] - x0[s]) / (yb - ya)
+                xc = x[s] + (py[q] - ya) * (x[e] - x[s]) / (yb - ya)
                 if xc < px[q]:
                     # list each loop once per query, however often its winding returns to 0
                     if stamp[lp] != q:
@@ -74,8 +76,8 @@ SWEEP_NUDGE = 2.0**-21  # scanlines sit this far below the sample rows (see _ker
 
 
 @njit(cache=True, nogil=True)
-def _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, y):
-    """The crossings of bucket k's segments with the line y (half-open in y): per crossing
+def _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yl):
+    """The crossings of bucket k's segments with the line yl (half-open in y): per crossing
     its x, loop, direction (+1 down) and place in row_order; returns (xs, ls, ds, ps, n)."""
     a0 = row_start[k]
     a1 = row_start[k + 1]
@@ -86,10 +88,11 @@ def _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, y):
     n = 0
     for a in range(a0, a1):
         s = row_order[a]
-        ya = y0[s]
-        yb = y1[s]
-        if (ya <= y < yb) or (yb <= y < ya):
-            xs[n] = x0[s] + (y - ya) * (x1[s] - x0[s]) / (yb - ya)
+        e = nxt[s]
+        ya = y[s]
+        yb = y[e]
+        if (ya <= yl < yb) or (yb <= yl < ya):
+            xs[n] = x[s] + (yl - ya) * (x[e] - x[s]) / (yb - ya)
             ls[n] = seg_loop[s]
             ds[n] = 1 if yb > ya else -1
             ps[n] = a
@@ -98,7 +101,7 @@ def _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, y):
 
 
 @njit(cache=True, nogil=True)
-def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loops, n_rows):
+def sweep_enclosing(x, y, nxt, seg_loop, row_start, row_order, level, n_loops, n_rows):
     """Parents of all loops, in one left-to-right sweep per half-pixel row (linear in the
     number of crossings).
 
@@ -115,7 +118,7 @@ def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loo
     on_stack = np.zeros(n_loops, np.bool_)
     for k in range(n_rows):
         yc = 0.5 * k + SWEEP_NUDGE
-        xs, ls, _, _, n = _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, yc)
+        xs, ls, _, _, n = _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yc)
         order = np.argsort(xs[:n], kind="mergesort")
         sp = 0
         i = 0
@@ -159,7 +162,7 @@ def sweep_enclosing(x0, y0, x1, y1, seg_loop, row_start, row_order, level, n_loo
 
 
 @njit(cache=True, nogil=True)
-def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_start, row_order,
+def innermost_enclosing_rows(px, py, exclude, x, y, nxt, seg_loop, row_start, row_order,
                              area, level, n_rows):
     """:func:`innermost_enclosing` (same arguments, same answers) for many queries per row.
 
@@ -194,7 +197,7 @@ def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_star
         g1 = g0
         while g1 < nq and kq[o[g1]] == k and py[o[g1]] == yq:
             g1 += 1
-        xs, ls, ds, ps, nc = _row_crossings(x0, y0, x1, y1, seg_loop, row_start, row_order, k, yq)
+        xs, ls, ds, ps, nc = _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yq)
         order = np.argsort(xs[:nc])
         nm = 0
         nt = 0
@@ -246,7 +249,7 @@ def innermost_enclosing_rows(px, py, exclude, x0, y0, x1, y1, seg_loop, row_star
 
 @njit(cache=True, nogil=True)
 def bucket_rows(row, n_rows):
-    """Counting sort of row indices in [0, n_rows): (row_start (n_rows + 1,), row_order), equal
+    """Counting sort of row indices in [0, n_rows): (row_start (n_rows + 1,) int64, row_order int32), equal
     to np.argsort(row, kind="stable") and np.searchsorted(row[row_order], arange(n_rows + 1))."""
     row_start = np.zeros(n_rows + 1, np.int64)
     for s in range(row.shape[0]):
@@ -254,7 +257,7 @@ def bucket_rows(row, n_rows):
     for k in range(n_rows):
         row_start[k + 1] += row_start[k]
     fill = row_start[:-1].copy()
-    row_order = np.empty(row.shape[0], np.int64)
+    row_order = np.empty(row.shape[0], np.int32)  # segment indices: a channel's are far below 2**31
     for s in range(row.shape[0]):
         row_order[fill[row[s]]] = s
         fill[row[s]] += 1

@@ -452,8 +452,8 @@ def _gather_points(vals, grid, grid_eps, tb, lp_start, lp_key, lp_at, lp_inner, 
             n_kept += 1
     points = np.empty((n_out, 2))
     border = np.empty(n_out, np.bool_)
-    below = np.empty(n_out, np.int64)
-    above = np.empty(n_out, np.int64)
+    below = np.empty(n_out, np.int32)  # sample indices: the padded grid of MAX_PIXELS has under 2**31
+    above = np.empty(n_out, np.int32)
     t = np.empty(n_out)
     eps_b = np.empty(n_out)
     eps_a = np.empty(n_out)

@@ -31,10 +31,12 @@ def _diag_band(v0, v1, v2, v3, levels):
 
 @njit(cache=True, nogil=True)
 def label_regions(vals, band, levels):
-    """(Hp, Wp) labels (int64, 0..R-1) and R."""
+    """(Hp, Wp) labels (int32, 0..R-1) and R."""
     hp, wp = band.shape
     n = hp * wp
-    parent = np.arange(n)
+    parent = np.empty(n, np.int32)  # the padded grid of MAX_PIXELS has under 2**31 samples
+    for i in range(n):
+        parent[i] = i
     # the padding ring joins nothing: regions are connected inside the image only, as the
     # decoder sees them (each padding sample stays a region of its own, with no samples)
     for r in range(1, hp - 1):
@@ -124,6 +126,23 @@ def region_stats(labels, vals, m):
 
 
 @njit(cache=True, nogil=True)
+def _edge_distance(edge, hd, r, c, h, rad, far, ramp):
+    """cap_sums' d at image sample (r, c): from the window's nearest edge sample (hd), ramp
+    when none lies within it."""
+    best = far + 1
+    if edge[r, c]:
+        best = 0
+    else:
+        for rr in range(max(0, r - rad), min(h, r + rad + 1)):
+            e = hd[rr, c]
+            if e <= rad:
+                s = (rr - r) * (rr - r) + e * e
+                if s < best:
+                    best = s
+    return (math.sqrt(best) + 0.5) * 0.5 if best <= far else ramp
+
+
+@njit(cache=True, nogil=True)
 def cap_sums(labels, vals, want, L, ramp):
     """Least-squares sums of the cap profile fit (encoder/hierarchy.py) for the regions k
     with want[k]: num[k] = sum (v - L[k]) f and den[k] = sum f^2 over the region's samples,
@@ -173,33 +192,19 @@ def cap_sums(labels, vals, want, L, ramp):
                 nxt = c
             if nxt - c < hd[r, c]:
                 hd[r, c] = nxt - c
-    d = np.empty((h, w))
+    # d is found twice, for dmax and for the sums, rather than held (8 bytes a sample)
     dmax = np.zeros(m)
     for r in range(h):
         for c in range(w):
             k = labels[r + 1, c + 1]
-            if not want[k]:
-                continue
-            best = far + 1
-            if edge[r, c]:
-                best = 0
-            else:
-                for rr in range(max(0, r - rad), min(h, r + rad + 1)):
-                    e = hd[rr, c]
-                    if e <= rad:
-                        s = (rr - r) * (rr - r) + e * e
-                        if s < best:
-                            best = s
-            dist = (math.sqrt(best) + 0.5) * 0.5 if best <= far else ramp
-            d[r, c] = dist
-            if dist > dmax[k]:
-                dmax[k] = dist
+            if want[k]:
+                dmax[k] = max(dmax[k], _edge_distance(edge, hd, r, c, h, rad, far, ramp))
     for r in range(h):
         for c in range(w):
             k = labels[r + 1, c + 1]
             if not want[k]:
                 continue
-            f = min(1.0, d[r, c] / max(min(dmax[k], ramp), 1e-9))
+            f = min(1.0, _edge_distance(edge, hd, r, c, h, rad, far, ramp) / max(min(dmax[k], ramp), 1e-9))
             num[k] += (vals[r + 1, c + 1] - L[k]) * f
             den[k] += f * f
     return num, den, True

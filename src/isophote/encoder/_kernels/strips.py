@@ -157,8 +157,8 @@ def march_strip(wv, wb, we, w0, hp, r0, r1, levels):
     frame_levels = np.empty(n_frame, np.int64)
     points = np.empty((n_out, 2))
     border = np.empty(n_out, np.bool_)
-    below = np.empty(n_out, np.int64)
-    above = np.empty(n_out, np.int64)
+    below = np.empty(n_out, np.int32)  # sample indices: the padded grid of MAX_PIXELS has under 2**31
+    above = np.empty(n_out, np.int32)
     t = np.empty(n_out)
     eps_b = np.empty(n_out)
     eps_a = np.empty(n_out)
