@@ -265,10 +265,10 @@ def _colour(vi, planes) -> np.ndarray:
 def _fits(vi) -> bool:
     """Whether the colour step maps out-of-gamut colours towards the grey of their luma
     (colour.fit_gamut) instead of clipping each channel: where the Y channel carries a tone
-    curve (equalisation's), whose histogram is of that luma; clipping changed it (RGB luma KS
-    to uniform up to 0.044 on the wide corpus where Y itself has 0.004). Plain renders clip:
-    clipping is the nearest colour of the cube, 0.8 dB better on a photograph whose render
-    leaves it (benchmarks/results/quality_wide_balanced.md#gamut)."""
+    curve (equalisation's), whose histogram is of that luma; clipping changed it (the RGB
+    luma's KS to uniform 0.044 on the wide corpus's Kite, whose Y has 0.0005). Plain renders
+    clip: clipping is the nearest colour of the cube, 0.8 dB better on a photograph whose
+    render leaves it (benchmarks/results/quality_wide_balanced.md#gamut)."""
     return vi.colour == "yuv" and vi.channel("Y").tone is not None
 
 

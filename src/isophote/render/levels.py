@@ -5,25 +5,27 @@ crop of a render at one scale reads the same fields (blocks.py).
 
 Reductions (output scale z < 1) are area averages of the fill, as the box reduction of the
 1x render is. With p the smallest power of two >= z: above 1/2 the nodes are the source's
-(r = 1); at 1/2 the output's (r = 1/2); below 1/2 REDUCTION_NODES a side per output pixel
-(r = 2p, at most REDUCTION_FINEST). The samples are s x s a pixel, box filtered, s the
-smallest power of two >= 1/z between 2 and REDUCTION_SAMPLES: 2 at 1/2, 4 at 1/4 and below
-(one sample a source pixel at 1/4, one every 2 at 1/8). Both are a fixed number per output
-pixel, so a reduction costs what its output does. Nodes at the output's resolution with
-2 x 2 samples (the rule before, still the one at 1/2) point-sample the contours at 1/4 and
-1/8: on the wide corpus 1/8 rendered 1-17 dB under the box reduction of the 1x render, this
-rule 0-4 dB (benchmarks/results/render_reduction.md). At 1/2 the 1x grid would be 0.3-1.2
-dB closer to that bound for about twice the time, but at 1/2 of the encoder's largest canvas
-its kept blocks leave the default memory budget (limits_render.py). At and above 1x the
-level is node_resolution's (render/__init__.py).
+(r = 1); at 1/2 and below half a source pixel apart (r = REDUCTION_FINEST), but at most
+REDUCTION_NODES times p (r = 4p from 1/8 down): 1, 2 and 4 a side per output pixel at 1/2,
+1/4 and 1/8, and 4 at every smaller power of two. The samples are s x s a pixel, box
+filtered, s the smallest power of two >= 1/z between 2 and REDUCTION_SAMPLES: 2 at 1/2, 4
+at 1/4 and below (one a source pixel at 1/4, one every 2 at 1/8). Both are bounded per
+output pixel, so a reduction costs what its output does. Nodes at the output's resolution
+with 2 x 2 samples (the rule before, still the one at 1/2) point-sample the contours at 1/4
+and 1/8: on the wide corpus and the five corpus photos 1/8 rendered 0.5-18.5 dB under the
+box reduction of the 1x render, this rule -0.4-3.9 dB (benchmarks/results/
+reduction_sampling.md, with the candidates measured). At 1/2 the 1x grid would be 0.7 dB
+closer to that bound (up to 1.8) for about twice the time, but at 1/2 of the encoder's
+largest canvas its kept blocks leave the default memory budget (limits_render.py). At and
+above 1x the level is node_resolution's (render/__init__.py).
 """
 
 from __future__ import annotations
 
 import math
 
-REDUCTION_NODES = 2  # nodes a side per output pixel below 1x (at most one a source pixel)
-REDUCTION_FINEST = 0.5  # nodes a source pixel at most at 1/2 and below (see the module docstring)
+REDUCTION_NODES = 4  # most nodes a side per output pixel at powers of two 1/2 and below
+REDUCTION_FINEST = 0.5  # nodes a source pixel at 1/2 and below, at most (see the module docstring)
 REDUCTION_SAMPLES = 4  # most samples a side per output pixel below 1x
 
 
@@ -32,8 +34,9 @@ def _pow2_at_least(x: float) -> float:
 
 
 def reduction_r(z: float) -> float:
-    """Nodes per source pixel below 1x: the smallest power of two p at least z; at 1/2 and
-    below REDUCTION_NODES times p, at most REDUCTION_FINEST."""
+    """Nodes per source pixel below 1x: above 1/2, 1; at 1/2 and below REDUCTION_FINEST, at
+    most REDUCTION_NODES times the smallest power of two p >= z (REDUCTION_NODES a side per
+    output pixel)."""
     p = _pow2_at_least(z)
     return p if p >= 1.0 else min(REDUCTION_FINEST, REDUCTION_NODES * p)
 
