@@ -173,7 +173,7 @@ def tables(rows, only, preset) -> list:
                    for m, key, d in (("PSNR", "psnr", 2), ("S2", "ssimulacra2", 1), ("FLIP", "flip", 4))], path)
     if "equalise" in only:
         table("Equalisation at 1x (Y: the equalised channel rendered alone; RGB luma: BT.601 luma of the "
-              "RGB render, after the renderer's gamut clipping; atom: the original's largest single-value share)",
+              "RGB render, its out-of-gamut colours moved at constant luma; atom: the original's largest single-value share)",
               [("Y empty bins", ("equalise.y_empty", 0)), ("Y KS", ("equalise.y_ks", 4)),
                ("RGB luma empty", ("equalise.empty", 0)), ("RGB luma KS", ("equalise.ks", 4)),
                ("atom", ("equalise.atom", 4))], path)
