@@ -34,3 +34,23 @@ def yuv_to_rgb(yuv):
     """(..., 3) YUV on the 0..255 scale -> (..., 3) float64 RGB, not clipped."""
     yuv = np.asarray(yuv, dtype=np.float64)
     return (yuv - YUV_OFFSET) @ YUV_TO_RGB.T
+
+
+def fit_gamut(rgb, y):
+    """(..., 3) RGB on the 0..255 scale with luma ``y`` (...,) -> (..., 3) float64 inside the
+    RGB cube with the same luma: a colour outside the cube moves in a straight line towards
+    the grey (y, y, y) until it fits (y itself clipped to 0..255 first); colours inside are
+    returned unchanged. Clipping each channel alone instead changes the luma of every colour
+    it touches (a saturated blue at the top of its range loses its R and G excess and darkens),
+    which undoes a tone curve's histogram (isophote.apply.equalise). The luma weights sum to 1
+    and the chroma offset rgb - y has zero luma, so any point of that segment keeps the luma."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    yc = np.clip(np.asarray(y, dtype=np.float64), 0.0, 255.0)[..., None]
+    d = rgb - np.asarray(y, dtype=np.float64)[..., None]
+    hi, lo = d.max(axis=-1, keepdims=True), d.min(axis=-1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_hi = np.where(yc + hi > 255.0, (255.0 - yc) / hi, 1.0)
+        t_lo = np.where(yc + lo < 0.0, yc / -lo, 1.0)
+    t = np.minimum(t_hi, t_lo)
+    inside = ((rgb >= 0.0) & (rgb <= 255.0)).all(axis=-1, keepdims=True)
+    return np.clip(np.where(inside, rgb, yc + t * d), 0.0, 255.0)

@@ -235,7 +235,8 @@ class RenderOptions:
     supersample : s for s x s samples per output pixel, box-filtered (1 = point samples).
         It antialiases flat fill's steps (astronaut, paper, 1x: 36.79 dB at 1, 37.34 at 4);
         the diffusion surface is smooth already and is only blurred by the output pixel's
-        box (40.07 dB at 1, 38.22 at 2, 38.03 at 4; benchmarks/results/decoder.md).
+        box (40.07 dB at 1, 38.22 at 2, 38.03 at 4; benchmarks/results/decoder.md). Below 1x
+        a reduction takes at least its own (2 at 1/2, 4 at 1/4 and below: render/levels.py).
     sharpen : K of the enlargement sharpening (render/sharpen.py): above 1x the source
         pixels' box blur, which the contours interpolate, is taken out down to the output
         pixel's; 0 turns it off; no effect at or below 1x, nor with fill "flat".

@@ -340,21 +340,23 @@ def test_rgb_render_shapes_and_colour():
 
 @pytest.mark.parametrize("depth", [8, 16])
 @pytest.mark.parametrize("alpha", [False, True])
-def test_fused_colour_kernel_matches_the_numpy_path(depth, alpha):
+@pytest.mark.parametrize("toned", [False, True])
+def test_fused_colour_kernel_matches_the_numpy_path(depth, alpha, toned):
     from isophote.colour import YUV_TO_RGB
     from isophote.render import _colour, quantise
     from isophote.render._kernels.colour import yuv_quantise
 
     rng = np.random.default_rng(depth + alpha)
-    # out of gamut and out of range on purpose: both clip
+    # out of gamut and out of range on purpose: both clip, or with a tone curve on Y keep their luma
     planes = {k: rng.uniform(-40, 300, (37, 53)).astype(np.float32) for k in ("Y", "U", "V")}
     if alpha:
         planes["A"] = rng.uniform(-10, 270, (37, 53)).astype(np.float32)
-    vi = type("V", (), {"colour": "yuv"})()
+    y = type("C", (), {"tone": np.array([[0.0, 0.0], [255.0, 255.0]]) if toned else None})()
+    vi = type("V", (), {"colour": "yuv", "channel": lambda self, name: y})()
     want = quantise(_colour(vi, planes), depth)
     got = np.empty_like(want)
     yuv_quantise(planes["Y"], planes["U"], planes["V"], planes.get("A", np.empty((0, 0), np.float32)),
-                 YUV_TO_RGB, 257.0 if depth == 16 else 1.0, got)
+                 YUV_TO_RGB, 257.0 if depth == 16 else 1.0, toned, got)
     assert got.dtype == want.dtype and got.shape == (37, 53, 4 if alpha else 3)
     # the matrix product may round its last bit differently: a sample exactly half-way between
     # two codes may go either way, nothing more

@@ -1,6 +1,7 @@
 """The renderer whose cost follows its output (issue 22): block fields, tiles, limits.
 
-Crops equal the same region of the full render at 1/4, 1 and 3, on one window and on
+Crops equal the same region of the full render at 1/8, 1/4, 1/2, 1 and 3 (below 1x with
+their samples and nodes per output pixel, render/levels.py), on one window and on
 blocks (forced small here, as a big master gets them), tiles equal render(crop=...), and
 renders do not depend on the strips or the workers.
 """
@@ -52,7 +53,9 @@ def forced_blocks(monkeypatch):
     monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
 
 
-CROPS = {0.25: [(8, 12, 48, 40), (0, 0, 32, 20), (64, 36, 32, 36)],
+CROPS = {0.125: [(16, 8, 64, 48), (40, 24, 56, 48), (0, 0, 96, 8)],
+         0.25: [(8, 12, 48, 40), (0, 0, 32, 20), (64, 36, 32, 36)],
+         0.5: [(6, 4, 50, 40), (0, 0, 96, 2), (30, 22, 66, 50)],
          1: [(13, 7, 40, 30), (0, 0, 96, 1), (50, 41, 46, 31)],
          3: [(13, 7, 20, 15), (70, 50, 26, 22)]}
 
@@ -78,8 +81,8 @@ def test_crop_equals_region_blocks(vi, forced_blocks, scale):
 
 
 def test_crop_equals_region_corpus_photo(camera, forced_blocks):
-    for scale in (0.25, 1, 3):
-        _check_crops(camera, scale, [(16, 8, 64, 48), (4, 60, 40, 64)] if scale != 3 else [(16, 8, 30, 20)])
+    for scale in (0.125, 0.25, 0.5, 1, 3):
+        _check_crops(camera, scale, [(16, 8, 64, 48), (8, 56, 40, 64)] if scale != 3 else [(16, 8, 30, 20)])
 
 
 def test_blocks_close_to_one_window(vi, camera, monkeypatch):
@@ -138,8 +141,8 @@ def test_same_bytes_whatever_strips_and_workers(vi, monkeypatch):
 
 
 def test_reduction_is_an_area_average():
-    """Below 1x the samples are 2 x 2 a pixel: a fine stripe pattern averages to grey instead
-    of aliasing to one of its two values."""
+    """Below 1x the samples are at least 2 x 2 a pixel: a fine stripe pattern averages to grey
+    instead of aliasing to one of its two values."""
     img = np.zeros((64, 64), np.uint8)
     img[:, ::2] = 200
     img[:, 1::2] = 40
@@ -147,6 +150,17 @@ def test_reduction_is_an_area_average():
     q = v.render(scale=0.25).astype(float)
     assert abs(q[4:-4, 4:-4].mean() - 120) < 25
     assert q[4:-4, 4:-4].std() < 20
+
+
+def test_reduction_to_an_eighth_does_not_alias():
+    """Stripes 2 pixels wide on columns 1, 2 (mod 4): 2 x 2 samples at 1/8 sit on columns 2
+    and 6 of every 8, both white (the rule before rendered 202); 4 x 4 at 1/8 (levels.py) sit on
+    1, 3, 5, 7, half white, and give the box average, 120."""
+    img = np.full((96, 96), 40, np.uint8)
+    img[:, 1::4] = 200
+    img[:, 2::4] = 200
+    q = isophote.encode(img).render(scale=0.125).astype(float)[2:-2, 2:-2]
+    assert abs(q.mean() - 120) < 6 and q.std() < 3
 
 
 def test_huge_canvas_refused_before_allocation(vi):

@@ -4,12 +4,13 @@
         flatten chains  ->  distance fields on the node grid (§4.1-4.2)
         ->  per strip of output rows: rasterise bands at the target samples
         ->  fill (double diffusion or flat; sharpened above 1x)  ->  box filter
-        ->  colour (YUV -> RGB), quantise
+        ->  colour (YUV -> RGB; out-of-gamut colours clipped, or moved at constant luma
+            towards grey where Y has a tone curve), quantise
 
 The fill is a fixed function of the vector image and the output scale: distances live on a
 node grid, a level (r nodes per source pixel, chosen from the canvas and the scale, never
-from the crop: levels.py; below 1x at the output's resolution, with 2 x 2 samples a pixel
-box-filtered), cut into canvas-aligned blocks whose fields are computed on the block plus a
+from the crop: levels.py; below 1x a fixed number of nodes and of box-filtered samples per
+output pixel), cut into canvas-aligned blocks whose fields are computed on the block plus a
 margin when the level is large (blocks.py), and each target sample reads the nodes around it
 in its block. A crop is therefore exactly the same region of the full render at that scale,
 tiles join seamlessly (tiles.py), and a render computes only the blocks under its samples.
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import threads
-from ..colour import YUV_TO_RGB, yuv_to_rgb
+from ..colour import YUV_TO_RGB, fit_gamut, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
@@ -242,21 +243,33 @@ def _convert(vi, planes, depth) -> np.ndarray:
         y = planes["Y"]
         q = np.empty(y.shape + (4 if "A" in planes else 3,), np.uint16 if depth == 16 else np.uint8)
         alpha = planes["A"] if "A" in planes else np.empty((0, 0), np.float32)
-        yuv_quantise(y, planes["U"], planes["V"], alpha, YUV_TO_RGB, 257.0 if depth == 16 else 1.0, q)
+        yuv_quantise(y, planes["U"], planes["V"], alpha, YUV_TO_RGB, 257.0 if depth == 16 else 1.0, _fits(vi), q)
         return q
     a = _colour(vi, planes)
     return a if depth is None else quantise(a, depth)
 
 
 def _colour(vi, planes) -> np.ndarray:
-    """Channel planes of one strip to RGB(A) or grey(+alpha), float64 on 0..255, clipped."""
+    """Channel planes of one strip to RGB(A) or grey(+alpha), float64 on 0..255: clipped, or
+    brought into the RGB cube at constant luma where _fits says so."""
     if vi.colour == "yuv":
-        parts = [yuv_to_rgb(np.stack([planes["Y"], planes["U"], planes["V"]], axis=-1).astype(np.float64))]
+        rgb = yuv_to_rgb(np.stack([planes["Y"], planes["U"], planes["V"]], axis=-1).astype(np.float64))
+        parts = [fit_gamut(rgb, planes["Y"]) if _fits(vi) else rgb]
     else:
         parts = [planes["Y"][..., None].astype(np.float64)]
     if "A" in planes:
         parts.append(planes["A"][..., None].astype(np.float64))
     return np.clip(np.concatenate(parts, axis=-1), 0.0, 255.0)
+
+
+def _fits(vi) -> bool:
+    """Whether the colour step maps out-of-gamut colours towards the grey of their luma
+    (colour.fit_gamut) instead of clipping each channel: where the Y channel carries a tone
+    curve (equalisation's), whose histogram is of that luma; clipping changed it (the RGB
+    luma's KS to uniform 0.044 on the wide corpus's Kite, whose Y has 0.0005). Plain renders
+    clip: clipping is the nearest colour of the cube, 0.8 dB better on a photograph whose
+    render leaves it (benchmarks/results/quality_wide_balanced.md#gamut)."""
+    return vi.colour == "yuv" and vi.channel("Y").tone is not None
 
 
 def quantise(a: np.ndarray, depth: int) -> np.ndarray:
