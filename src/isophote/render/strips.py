@@ -209,14 +209,25 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
         col_runs = split(xs, lv.block, nbc)
         row_runs = split(ys[a0:a1], lv.block, nbr)
         cache.prefetch([(bi, bj) for bi, _, _ in row_runs for bj, _, _ in col_runs])
-        for bi, p0, p1 in row_runs:
-            for bj, c0, c1 in col_runs:
-                nf = cache.get(bi, bj)
-                piece = np.empty((p1 - p0, c1 - c0), np.float32)
-                evaluate_piece(nf, np.ascontiguousarray(tband[p0:p1, c0:c1]), xs[c0:c1], ys[a0 + p0:a0 + p1], piece)
-                out[p0:p1, c0:c1] = piece
-                if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
-                    cache.drop(bi, bj)  # no later strip reads this block
+        pieces = [(cache.get(bi, bj), p0, p1, c0, c1) for bi, p0, p1 in row_runs for bj, c0, c1 in col_runs]
+
+        def piece(job):  # each writes its own samples: any order, any number of threads
+            nf, p0, p1, c0, c1 = job
+            part = np.empty((p1 - p0, c1 - c0), np.float32)
+            evaluate_piece(nf, np.ascontiguousarray(tband[p0:p1, c0:c1]), xs[c0:c1], ys[a0 + p0:a0 + p1], part)
+            out[p0:p1, c0:c1] = part
+
+        if len(pieces) == 1:
+            piece(pieces[0])
+        else:
+            with threads.pool(threads.available(len(pieces))) as pool:
+                list(pool.map(piece, pieces))
+        del pieces
+        if last_use is not None and lv.block:
+            for bi, _, _ in row_runs:
+                if last_use.get(bi, -1) <= out_r1:
+                    for bj, _, _ in col_runs:
+                        cache.drop(bi, bj)  # no later strip reads this block
     out = apply_tone_curve(out, tone)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
