@@ -4,9 +4,10 @@ A channel renders from a ChannelLevel (its level, edges and regions) through a B
 (the block fields it has computed, least recently used first out). Strips follow the block
 rows of the first blocked channel, so that a full render computes every block once and
 keeps at most a row of blocks (the ones a straddling output row still needs). A strip's
-missing block fields are computed together, on the threads the process may use, so that a
-channel much costlier than the others (a dense luma beside smooth chroma) does not leave a
-processor idle; the flat fill reads no field and computes none.
+blocks are computed and filled a group at a time, a block per thread the process may use,
+so that a channel much costlier than the others (a dense luma beside smooth chroma) does not
+leave a processor idle, and only a group's windows are held beyond that row; the flat fill
+reads no field and computes none.
 """
 
 from __future__ import annotations
@@ -74,9 +75,7 @@ class BlockCache:
     def prefetch(self, keys) -> None:
         """Compute the fields of the blocks ``keys`` not held yet at once, on the threads the
         process may use (as many as the capacity holds): a block's fields do not depend on
-        which others are computed, nor when, so this changes the time only. A strip of a
-        channel whose blocks cost far more than the other channels' (a dense luma beside
-        smooth chroma) is then no longer one thread's work."""
+        which others are computed, nor when, so this changes the time only."""
         with self.lock:
             lv = self.cl.level
             missing = [k for k in keys if k not in self.blocks]
@@ -207,9 +206,7 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
     else:
         nbr, nbc = lv.blocks()
         col_runs = split(xs, lv.block, nbc)
-        row_runs = split(ys[a0:a1], lv.block, nbr)
-        cache.prefetch([(bi, bj) for bi, _, _ in row_runs for bj, _, _ in col_runs])
-        pieces = [(cache.get(bi, bj), p0, p1, c0, c1) for bi, p0, p1 in row_runs for bj, c0, c1 in col_runs]
+        jobs = [(bi, bj, p0, p1, c0, c1) for bi, p0, p1 in split(ys[a0:a1], lv.block, nbr) for bj, c0, c1 in col_runs]
 
         def piece(job):  # each writes its own samples: any order, any number of threads
             nf, p0, p1, c0, c1 = job
@@ -217,17 +214,22 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
             evaluate_piece(nf, np.ascontiguousarray(tband[p0:p1, c0:c1]), xs[c0:c1], ys[a0 + p0:a0 + p1], part)
             out[p0:p1, c0:c1] = part
 
-        if len(pieces) == 1:
-            piece(pieces[0])
-        else:
-            with threads.pool(threads.available(len(pieces))) as pool:
-                list(pool.map(piece, pieces))
-        del pieces
-        if last_use is not None and lv.block:
-            for bi, _, _ in row_runs:
-                if last_use.get(bi, -1) <= out_r1:
-                    for bj, _, _ in col_runs:
-                        cache.drop(bi, bj)  # no later strip reads this block
+        # a group of blocks per thread at a time: computed together, filled, let go when no
+        # later strip reads them, so only a group's windows are in memory at once
+        width = threads.available(len(jobs))
+        for g in range(0, len(jobs), width):
+            group = jobs[g:g + width]
+            cache.prefetch([(bi, bj) for bi, bj, *_ in group])
+            pieces = [(cache.get(bi, bj), *rest) for bi, bj, *rest in group]
+            if len(pieces) == 1:
+                piece(pieces[0])
+            else:
+                with threads.pool(len(pieces)) as pool:
+                    list(pool.map(piece, pieces))
+            del pieces
+            for bi, bj, *_ in group:
+                if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
+                    cache.drop(bi, bj)  # no later strip reads this block
     out = apply_tone_curve(out, tone)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
