@@ -204,3 +204,50 @@ def test_progress_reaches_100_and_is_quiet_in_pipes(vi):
         vi.render(progress=p)
         p.done()
     assert "100%" in tty.getvalue() and pipe.getvalue() == ""
+
+
+def test_flat_fill_computes_no_field(vi, forced_blocks, monkeypatch):
+    """The flat fill is each sample's band middle: it reads no field, so a flat render (one
+    window or blocks) computes none, and every inner sample of a grey master is the middle of
+    its band's two levels."""
+    grey = isophote.encode(_synthetic()[..., 0], smooth_step=0.0, smooth_grain=0.0)
+
+    def no_field(*args, **kwargs):
+        raise AssertionError("a flat render computed a field")
+
+    monkeypatch.setattr(blocks.ChannelLevel, "field", no_field)
+    for single in (0, 10**9):  # blocks, then one window
+        monkeypatch.setattr(blocks, "SINGLE_NODES", single)
+        vi.render(fill="flat")
+        out = grey.render(fill="flat", depth=16).astype(float) / 257.0
+        lv = grey.channels[0].levels
+        middles = 0.5 * (lv[:-1] + lv[1:])
+        assert np.abs(out[..., None] - middles[None, None, :]).min(axis=-1).max() < 0.5 / 257.0 + 1e-9
+
+
+def test_prefetch_gives_the_fields_get_computes(vi, forced_blocks):
+    """A strip's block fields computed at once on several threads (BlockCache.prefetch) are
+    the ones get computes one at a time, each block once, within the cache's capacity."""
+    from isophote.options import RenderOptions
+    from isophote.render import channel_state, viewport
+
+    opts = RenderOptions()
+    vp = viewport(vi, opts)
+    ch = vi.channels[0]
+    _, one = channel_state(vi, ch, vp, opts)
+    _, many = channel_state(vi, ch, vp, opts)
+    keys = [(bi, bj) for bi in range(2) for bj in range(3)]
+    calls = []
+    field = many.cl.field
+    many.cl.field = lambda *a: calls.append(a[:2]) or field(*a)
+    many.prefetch(keys)
+    assert sorted(calls) == keys and set(many.blocks) == set(keys)
+    for k in keys:
+        a, b = one.get(*k), many.get(*k)
+        assert np.array_equal(a.F, b.F, equal_nan=True) and np.array_equal(a.nv, b.nv, equal_nan=True)
+    assert sorted(calls) == keys  # get found them all
+    _, small = channel_state(vi, ch, vp, opts)
+    i0, j0, n, m = small.cl.level.window(0, 0)
+    small.capacity = 2 * n * m * blocks.WINDOW_BYTES  # room for two windows of this size
+    small.prefetch(keys)
+    assert len(small.blocks) <= 2

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._kernels.diffuse import band_widths, evaluate, label_nodes, offsets, propagate, region_caps, seed
+from .. import threads
+from ._kernels.diffuse import NF, band_widths, evaluate, label_nodes, offsets, propagate, region_caps, seed
 from ._kernels.raster import rasterise, rasterise_chains, rasterise_window
 from ._kernels.regions import cap_values, local_cap_values
 from ._kernels.sharpen import correction
@@ -127,10 +128,15 @@ class ChannelLevel:
         lv, ch = self.level, self.ch
         r, B = lv.r, lv.block
         band = np.empty((lv.nr, lv.nc), np.int16)
-        for bi in range(lv.blocks()[0]):
+
+        def block_row(bi):  # each fills its own rows: any order, any number of threads
             i0, n = bi * B, min(B, lv.nr - bi * B)
             band[i0:i0 + n], *_ = self.rasterise(self.strip_segments(i0, i0 + n), r, 0.0, r, float(i0), False,
                                                  0, 0, n, lv.nc, False)
+
+        nbr = lv.blocks()[0]
+        with threads.pool(threads.available(nbr)) as pool:
+            list(pool.map(block_row, range(nbr)))
         band += np.int16(ch.base_band)
         labels, m = label_nodes(band)
         self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
@@ -207,9 +213,20 @@ def split(pos: np.ndarray, block: int, nb: int) -> list[tuple[int, int, int]]:
     return [(int(b[a]), int(a), int(z)) for a, z in zip(starts, stops)]
 
 
-def evaluate_piece(nf, tband, xs, ys, flat, out):
+def flat_piece(levels, tband, out):
+    """The flat fill of the samples tband (n, m) into out: the middle of each sample's band,
+    which reads no field (evaluate's flat path, given empty ones), so a flat render
+    computes none."""
+    n, m = tband.shape
+    e2, e1 = np.zeros((0, 0), np.float32), np.zeros(0)
+    evaluate(np.zeros((0, 0, 2, NF), np.float32).transpose((2, 3, 0, 1)), np.zeros((0, 0), np.int16),
+             np.zeros((0, 0), np.int32), np.zeros((0, 2)), e1, 0.0, tband, np.zeros(m), np.zeros(n), levels, 0, True,
+             e2, out, False, np.zeros((0, 0, 2), np.float32), e2)
+
+
+def evaluate_piece(nf, tband, xs, ys, out):
     """The fill of the samples tband (n, m) at node positions xs, ys (level coordinates)
     from one window's fields, into out (n, m)."""
     i0, j0 = nf.origin
-    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, nf.ramp, tband, xs - j0, ys - i0, nf.levels, nf.mode, flat,
+    evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, nf.ramp, tband, xs - j0, ys - i0, nf.levels, nf.mode, False,
              nf.nv, out, nf.smooth, nf.bw, nf.corr)

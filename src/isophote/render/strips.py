@@ -3,7 +3,11 @@
 A channel renders from a ChannelLevel (its level, edges and regions) through a BlockCache
 (the block fields it has computed, least recently used first out). Strips follow the block
 rows of the first blocked channel, so that a full render computes every block once and
-keeps at most a row of blocks (the ones a straddling output row still needs).
+keeps at most a row of blocks (the ones a straddling output row still needs). A strip's
+blocks are computed and filled a group at a time, a block per thread the process may use,
+so that a channel much costlier than the others (a dense luma beside smooth chroma) does not
+leave a processor idle, and only a group's windows are held beyond that row; the flat fill
+reads no field and computes none.
 """
 
 from __future__ import annotations
@@ -13,9 +17,10 @@ from collections import OrderedDict
 
 import numpy as np
 
+from .. import threads
 from ..model import apply_tone_curve
 from ._kernels.raster import rasterise, row_windings
-from .blocks import WINDOW_BYTES, evaluate_piece, split
+from .blocks import WINDOW_BYTES, evaluate_piece, flat_piece, split
 
 STRIP_ROWS = 128  # output rows per strip of a one-window render
 SAMPLE_BUCKET = 64  # sample rows per bucket of the samples' edge index
@@ -65,13 +70,34 @@ class BlockCache:
             if nf is not None:
                 self.blocks.move_to_end((bi, bj))
                 return nf
-            nf = self.cl.field(bi, bj, self.distance, self.smooth, self.sharpen)
-            self.blocks[(bi, bj)] = nf
-            self.bytes += nf.band.size * WINDOW_BYTES
-            while self.bytes > self.capacity and len(self.blocks) > 1:
-                _, old = self.blocks.popitem(last=False)
-                self.bytes -= old.band.size * WINDOW_BYTES
-            return nf
+            return self._put((bi, bj), self._field((bi, bj)))
+
+    def prefetch(self, keys) -> None:
+        """Compute the fields of the blocks ``keys`` not held yet at once, on the threads the
+        process may use (as many as the capacity holds): a block's fields do not depend on
+        which others are computed, nor when, so this changes the time only."""
+        with self.lock:
+            lv = self.cl.level
+            missing = [k for k in keys if k not in self.blocks]
+            if len(missing) < 2:
+                return
+            _, _, n, m = lv.window(*missing[0])
+            missing = missing[:max(1, self.capacity // ((n * m) * WINDOW_BYTES))]
+            with threads.pool(threads.available(len(missing))) as pool:
+                fields = list(pool.map(self._field, missing))
+            for k, nf in zip(missing, fields):
+                self._put(k, nf)
+
+    def _field(self, key):
+        return self.cl.field(key[0], key[1], self.distance, self.smooth, self.sharpen)
+
+    def _put(self, key, nf):
+        self.blocks[key] = nf
+        self.bytes += nf.band.size * WINDOW_BYTES
+        while self.bytes > self.capacity and len(self.blocks) > 1:
+            _, old = self.blocks.popitem(last=False)
+            self.bytes -= old.band.size * WINDOW_BYTES
+        return nf
 
     def drop(self, bi: int, bj: int) -> None:
         with self.lock:
@@ -175,17 +201,35 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
     n, m = a1 - a0, vp.out_w * s
     tband = sedges.band(ys, a0, n, m)
     out = np.empty((n, m), np.float32)
-    nbr, nbc = lv.blocks()
-    col_runs = split(xs, lv.block, nbc)
-    for bi, p0, p1 in split(ys[a0:a1], lv.block, nbr):
-        for bj, c0, c1 in col_runs:
-            nf = cache.get(bi, bj)
-            piece = np.empty((p1 - p0, c1 - c0), np.float32)
-            evaluate_piece(nf, np.ascontiguousarray(tband[p0:p1, c0:c1]), xs[c0:c1], ys[a0 + p0:a0 + p1], flat,
-                           piece)
-            out[p0:p1, c0:c1] = piece
-            if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
-                cache.drop(bi, bj)  # no later strip reads this block
+    if flat:
+        flat_piece(cl.ch.levels, tband, out)  # the bands' middles: no field is read
+    else:
+        nbr, nbc = lv.blocks()
+        col_runs = split(xs, lv.block, nbc)
+        jobs = [(bi, bj, p0, p1, c0, c1) for bi, p0, p1 in split(ys[a0:a1], lv.block, nbr) for bj, c0, c1 in col_runs]
+
+        def piece(job):  # each writes its own samples: any order, any number of threads
+            nf, p0, p1, c0, c1 = job
+            part = np.empty((p1 - p0, c1 - c0), np.float32)
+            evaluate_piece(nf, np.ascontiguousarray(tband[p0:p1, c0:c1]), xs[c0:c1], ys[a0 + p0:a0 + p1], part)
+            out[p0:p1, c0:c1] = part
+
+        # a group of blocks per thread at a time: computed together, filled, let go when no
+        # later strip reads them, so only a group's windows are in memory at once
+        width = threads.available(len(jobs))
+        for g in range(0, len(jobs), width):
+            group = jobs[g:g + width]
+            cache.prefetch([(bi, bj) for bi, bj, *_ in group])
+            pieces = [(cache.get(bi, bj), *rest) for bi, bj, *rest in group]
+            if len(pieces) == 1:
+                piece(pieces[0])
+            else:
+                with threads.pool(len(pieces)) as pool:
+                    list(pool.map(piece, pieces))
+            del pieces
+            for bi, bj, *_ in group:
+                if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
+                    cache.drop(bi, bj)  # no later strip reads this block
     out = apply_tone_curve(out, tone)
     if s > 1:
         out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)

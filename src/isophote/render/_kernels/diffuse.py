@@ -80,14 +80,14 @@ def offsets(mode: int) -> np.ndarray:
     return np.asarray(_OFFS[mode], np.int64)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def metric(dx, dy, mode):
     if mode == 1:
         return abs(dx) + abs(dy)
     return np.sqrt(dx * dx + dy * dy)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def seg_dist(px, py, sx, sy, tx, ty, mode):
     """Distance from (px, py) to the source segment centred at (sx, sy) along (tx, ty)."""
     dx = px - sx
@@ -106,7 +106,7 @@ def seg_dist(px, py, sx, sy, tx, ty, mode):
     return metric(rx, ry, mode)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _offer_crossing(F, band, levels, i, j, sx, sy, tx, ty, going_up, mode):
     b = band[i, j]
     nl = levels.shape[0]
@@ -130,13 +130,13 @@ def _offer_crossing(F, band, levels, i, j, sx, sy, tx, ty, going_up, mode):
         F[s, V, i, j] = v
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _unit(a, b):
     n = np.sqrt(a * a + b * b)
     return a / n, b / n
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def seed(band, H, Vc, levels, mode):
     """Initial fields from the crossings: H = rasterise(...) crossing arrays of the rows,
     Vc = those of the columns (from the transposed geometry), each (fx, fd, lx, ld, fs, ls)."""
@@ -172,19 +172,20 @@ def seed(band, H, Vc, levels, mode):
     return F
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _sweep(F, band, offs, mode, forward):
     nr, nc = band.shape
     changed = False
     no = offs.shape[0]
+    so = offs.copy() if forward else -offs
     for a in range(nr):
         i = a if forward else nr - 1 - a
         for bj in range(nc):
             j = bj if forward else nc - 1 - bj
             b = band[i, j]
             for o in range(no):
-                di = offs[o, 0] if forward else -offs[o, 0]
-                dj = offs[o, 1] if forward else -offs[o, 1]
+                di = so[o, 0]
+                dj = so[o, 1]
                 ii = i + di
                 jj = j + dj
                 if ii < 0 or ii >= nr or jj < 0 or jj >= nc or band[ii, jj] != b:
@@ -206,7 +207,7 @@ def _sweep(F, band, offs, mode, forward):
     return changed
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def propagate(F, band, offs, mode, max_iter):
     """Sweep until nothing changes (at most max_iter forward/backward pairs); returns sweeps done."""
     for it in range(max_iter):
@@ -217,7 +218,7 @@ def propagate(F, band, offs, mode, max_iter):
     return max_iter
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def label_nodes(band):
     """8-connected regions of equal band: (labels (nr, nc) int32, count)."""
     nr, nc = band.shape
@@ -235,7 +236,7 @@ def label_nodes(band):
     return parent.astype(np.int32).reshape(nr, nc), m
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
     """Per region: d_max of each side (0 where the side has no source) and the cap value
     (NaN where no cap annotation falls in it)."""
@@ -251,7 +252,7 @@ def region_caps(F, band, labels, m, cap_x, cap_y, cap_band, cap_value):
     return dmax, cap_values(band, labels, m, cap_x, cap_y, cap_band, cap_value)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def band_widths(F, band, labels, dmax, capv, ramp):
     """(nr, nc, 2) float32: per node, the width of its band through it and the band's step
     (d0 + d1 and v1 - v0), or for a cap node its ramp length and rise (signed so that the
@@ -279,7 +280,7 @@ def band_widths(F, band, labels, dmax, capv, ramp):
     return bw
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _across(bw, nband, want, x, y, sx, sy, d):
     """(width, step) of band `want` just beyond the source (sx, sy) seen from (x, y) at
     distance d: read in bw at the first node of that band PROBE, then 2 PROBE, past the
@@ -299,7 +300,7 @@ def _across(bw, nband, want, x, y, sx, sy, d):
     return 0.0, 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _pchip_slope(s_here, w_here, s_next, w_next):
     """Slope at the isoline between two bands (values per node unit), the PCHIP weighted
     harmonic mean: monotone, and the slope of a straight ramp where both agree."""
@@ -310,7 +311,7 @@ def _pchip_slope(s_here, w_here, s_next, w_next):
     return (a + c) / (a / s_here + c / s_next)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _cubic(v0, v1, m0, m1, w, t):
     """The cubic Hermite curve over a stretch of length w, from v0 (slope m0) to v1 (slope
     m1), at t in [0, 1]."""
@@ -323,7 +324,7 @@ def _cubic(v0, v1, m0, m1, w, t):
     return v0 * h00 + w * m0 * h10 + v1 * h01 + w * m1 * h11
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1):
     """G1 fill between the lower isoline (distance d0, value v0) and the upper one (d1, v1):
     the cubic Hermite profile whose slopes at the isolines blend this band's slope with the
@@ -338,7 +339,7 @@ def _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1):
     return _cubic(v0, v1, m0, m1, w, d0 / w)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm):
     """A cap's ramp as a cubic from its isoline (value lvl, at distance d = 0) to the plateau
     (cv at d = dm, flat): the slope at the isoline blends the ramp's with that of the band
@@ -354,7 +355,7 @@ def _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm
     return _cubic(lvl, cv, m0, 0.0, dm, d / dm)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _mid(levels, b):
     """The middle of band b's two levels (the flat fill); a band beyond the extreme levels
     extends the nearest step, and a channel without levels (a hostile or degenerate file)
@@ -367,7 +368,7 @@ def _mid(levels, b):
     return 0.5 * (lo_b + hi_b)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _from_nodes(nv, nband, b, x, y, i0, j0):
     """The sample (x, y) of band b read from the node fill nv, where it can be: a node itself
     (renders at 1x), or in a cell whose four nodes share its band (no isoline crosses it;
@@ -391,7 +392,7 @@ def _from_nodes(nv, nband, b, x, y, i0, j0):
     return False, 0.0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
     """The exact evaluation's search around the sample (x, y) of band b: the 2 x 2 nodes of its
     cell, then (unless they hold a node of band b, or sources of both sides) the 4 x 4 around.
@@ -462,7 +463,7 @@ def _nearest_sources(F, nband, labels, b, x, y, i0, j0, mode):
     return reg, best_d0, v0, sx0, sy0, best_d1, v1, sx1, sy1
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
     """The fill where a side has no source: the region's cap profile (peak: only the lower
     level is a source; pit: only the upper), the band's middle without a cap."""
@@ -484,7 +485,7 @@ def _one_sided(bw, nband, dmax, capv, ramp, levels, b, x, y, reg, d0, v0, sx0, s
     return _cap_hermite(bw, nband, b, x, y, s_other, sx0, sy0, sx1, sy1, d, lvl, cv, dm)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
     """The fill between a lower and an upper source: the straight line (fill "linear") or
     the G1 Hermite profile."""
@@ -496,7 +497,7 @@ def _between(bw, nband, b, x, y, d0, v0, sx0, sy0, d1, v1, sx1, sy1, smooth):
     return _hermite(bw, nband, b, x, y, sx0, sy0, d0, v0, sx1, sy1, d1, v1)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def evaluate(F, nband, labels, dmax, capv, ramp, tband, xs, ys, levels, mode, flat, nv, out, smooth, bw,
              corr):
     """Fill values at target samples.

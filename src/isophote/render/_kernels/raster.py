@@ -35,7 +35,7 @@ NUDGE_X = 2.0**-21
 NUDGE_Y = 2.0**-21 * 0.6180339887498949  # (sqrt(5) - 1) / 2: no lattice slope
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings, transposed=False):
     """Band (winding sum) of rows row0 .. row0 + n_rows - 1, columns col0 .. col0 + n_cols - 1.
 
@@ -51,7 +51,7 @@ def rasterise(x0, y0, x1, y1, is_src, row0, col0, n_rows, n_cols, crossings, tra
     return _finish(acc, n_rows, n_cols)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def rasterise_chains(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0, col0, n_rows, n_cols, crossings,
                      transposed=False):
     """rasterise() of the edges flatten_selected(points, first, border, ids, tol) would give,
@@ -76,7 +76,7 @@ def rasterise_chains(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0
     return _finish(acc, n_rows, n_cols)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def rasterise_window(points, first, border, ids, tol, r, j0, i0, n_rows, n_cols):
     """A window's rows and columns at once: (rasterise_chains(..., r, j0, r, i0, False, 0, 0,
     n_rows, n_cols, True), rasterise_chains(..., r, j0, r, i0, True, 0, 0, n_cols, n_rows, True,
@@ -98,7 +98,7 @@ def rasterise_window(points, first, border, ids, tol, r, j0, i0, n_rows, n_cols)
     return _finish(rows, n_rows, n_cols), _finish(cols, n_cols, n_rows)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _accumulators(n_rows, n_cols, crossings):
     delta = np.zeros((n_rows, n_cols + 1), np.int32)
     if crossings:
@@ -118,7 +118,7 @@ def _accumulators(n_rows, n_cols, crossings):
     return delta, fx, fd, lx, ld, fs, ls
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _edge(acc, xa, ya, xb, yb, is_src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col):
     """One edge's crossings of the rows, into the accumulators."""
     delta, fx, fd, lx, ld, fs, ls = acc
@@ -161,7 +161,7 @@ def _edge(acc, xa, ya, xb, yb, is_src, row0, col0, n_rows, n_cols, crossings, nu
                 ls[i, k] = slope
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _finish(acc, n_rows, n_cols):
     delta, fx, fd, lx, ld, fs, ls = acc
     band = np.empty((n_rows, n_cols), np.int16)
@@ -173,7 +173,7 @@ def _finish(acc, n_rows, n_cols):
     return band, fx, fd, lx, ld, fs, ls
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def row_windings(points, first, border, ids, tol, kx, ox, ky, oy, row0, n_rows, step, n_bins):
     """(n_rows, n_bins) int32: per row (row0 + i, as rasterise's) the winding of the crossings
     of the segments' edges (mapped as in rasterise_chains) in gaps K < c * step, for c = 0 ..
