@@ -136,10 +136,12 @@ def reduced(vi, width: int, height: int):
     """``vi`` with its geometry scaled onto a width x height canvas (an exact affine map:
     the border stays on the border), to be rendered at 1x.
 
-    The renderer's distance fields live on a grid of one node per source pixel whatever the
-    output size, so a render below 1x costs what the 1x one does. Scaling the contours first
-    puts the grid at the output's size: several times faster, and close to the
-    Lanczos reduction of the 1x render (measured:
+    The renderer's own reductions are area averages: their nodes lie on the source grid above
+    1/2 and at most half a source pixel apart below it (up to 4 a side per output pixel, with
+    up to 4 x 4 samples a pixel: render/levels.py), so a thumbnail from them costs several
+    times its pixels. A thumbnail wants speed first: scaling the contours onto the small
+    canvas puts one node and one sample on each output pixel, several times faster and close
+    to the Lanczos reduction of the 1x render (measured:
     benchmarks/results/design_choices.md#reduced-render)."""
     import numpy as np
     from dataclasses import replace
