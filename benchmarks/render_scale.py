@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     ap.add_argument("--original", default="corpus-wide/mosaic-16mp.png")
     ap.add_argument("--tiles", type=int, default=500)
     ap.add_argument("--timeout", type=float, default=900)
-    ap.add_argument("--skip", default="", help="comma-separated cases to skip (1x, tiles)")
+    ap.add_argument("--skip", default="", help="comma-separated cases to skip (sizes, 1x, tiles)")
     ap.add_argument("--sizes", choices=("mosaic", "proportional"), default="mosaic",
                     help="the mosaic's output sizes, or the same scales of the master given")
     ap.add_argument("--out", default=RESULTS)
@@ -109,7 +109,7 @@ def main(argv=None) -> int:
         w0, h0 = Image.open(args.original).size
         sizes = [(f"{round(w0 * 0.75)}x{round(h0 * 0.75)}", round(w0 * 0.75), round(h0 * 0.75)),
                  (f"{round(w0 * 0.1875)} wide", round(w0 * 0.1875), None)]
-    for name, width, height in sizes:
+    for name, width, height in ([] if "sizes" in skip else sizes):
         opts = dict(width=width, height=height) if height else dict(width=width)
         pil = run(dict(kind="pillow", original=args.original, width=width, height=height), args.timeout)
         ren = run(dict(kind="render", master=args.master, options=opts), args.timeout)

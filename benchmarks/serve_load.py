@@ -3,7 +3,10 @@
 For each master: start `isophote serve MASTER --port P` as its own process, then ask for N
 distinct IIIF tiles (256 px, the viewer's pyramid, zoom 1:8 to 8:1, levels equally often,
 shuffled with a fixed seed), C at a time, from a cold cache; then the same N again (warm).
-Reports p50/p95/p99 latency, 503s, the server's cache hit rate and its peak RSS; and, in
+The server prepares the pyramid at start (render/prepare.py; --no-prepare: each level's
+first tile does) and the cold pass starts once its /stats says it is done. Reports
+p50/p95/p99 latency, 503s, the server's cache hit rate, its processor time in the cold pass
+and its peak RSS; and, in
 process, the time of one tile at each zoom against a peer measured in the same run (Pillow:
 crop the original raster's region and resize it with Lanczos to the tile, as a raster tile
 server would), which shows what bounds the latency zoom by zoom (benchmarks/results/render_scale.md
@@ -112,20 +115,35 @@ def peak_rss_mb(pid: int) -> float:
     return float("nan")
 
 
-def serve(master: str, port: int, cache_mb: int):
+def serve(master: str, port: int, cache_mb: int, prepare: bool = True):
+    """Start the server; with ``prepare`` wait until it has prepared the pyramid (its /stats
+    says so). Returns (process, seconds from start to ready, the server's preparation
+    seconds or None)."""
     env = dict(os.environ, PYTHONPATH=str(HERE.parent / "src"))
+    t0 = time.perf_counter()
     p = subprocess.Popen([sys.executable, "-m", "isophote", "serve", master, "--port", str(port), "--quiet",
-                          "--cache-mb", str(cache_mb)], env=env)
+                          "--cache-mb", str(cache_mb)] + ([] if prepare else ["--no-prepare"]), env=env)
     import httpx
 
-    for _ in range(600):
+    for _ in range(3000):
         try:
-            httpx.get(f"http://127.0.0.1:{port}/stats", timeout=1)
-            return p
+            st = httpx.get(f"http://127.0.0.1:{port}/stats", timeout=1).json()
+            if st.get("prepare_error"):
+                raise RuntimeError(st["prepare_error"])
+            if not prepare or st.get("prepared") == st.get("masters"):
+                return p, time.perf_counter() - t0, st.get("prepare_s")
         except httpx.HTTPError:
-            time.sleep(0.2)
+            pass
+        time.sleep(0.2)
     p.kill()
     raise RuntimeError("the server did not start")
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system processor seconds of a process so far."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def one_tile_each_zoom(m, original, zooms=ZOOMS, warm=True):
@@ -181,6 +199,8 @@ def main() -> int:
     ap.add_argument("--append", action="store_true", help="add the masters' sections to --out")
     ap.add_argument("--single-only", action="store_true",
                     help="only the in-process one-tile timings (for a master whose load pass cannot fit)")
+    ap.add_argument("--no-prepare", dest="prepare", action="store_false",
+                    help="start the server with --no-prepare (each level's first tile prepares it)")
     args = ap.parse_args()
     singles = tuple(float(v) for v in args.single_zooms.split(","))
 
@@ -188,8 +208,9 @@ def main() -> int:
              f"{args.tiles} distinct 256-px IIIF tiles a master (zoom 1:8 to 8:1, levels equally often), "
              f"{args.concurrency} requests at a time, against `isophote serve` in its own process "
              f"({len(os.sched_getaffinity(0))} cores, render pool = cores, queue 4 x cores, "
-             f"cache {args.cache_mb} MiB); cold = first pass, warm = the same tiles again. "
-             f"Machine load average at start: {os.getloadavg()[0]:.1f} (shared machine: timings are noisy).", ""]
+             f"cache {args.cache_mb} MiB, {'pyramid prepared at start' if args.prepare else '--no-prepare'}); "
+             f"cold = first pass (tile cache empty), warm = the same tiles again. {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+             f"machine load average at start: {os.getloadavg()[0]:.1f} (shared machine: timings are noisy).", ""]
     for spec in args.masters:
         path, _, original = spec.partition("=")
         m = load_master(path)
@@ -205,15 +226,17 @@ def main() -> int:
             continue
         urls = sample_tiles(m, args.tiles)
         port = free_port()
-        server = serve(path, port, args.cache_mb)
+        server, ready_s, prep_s = serve(path, port, args.cache_mb, args.prepare)
         try:
             import httpx
 
             for warm_up in (f"/iiif/{m.id}/0,0,8,8/8,8/0/default.png", f"/iiif/{m.id}/0,0,8,8/^32,32/0/default.png",
                             f"/iiif/{m.id}/0,0,16,16/8,8/0/default.png")[:args.warm_ups]:  # outside the sample
                 httpx.get(f"http://127.0.0.1:{port}{warm_up}", timeout=600).raise_for_status()
+            cpu0, load0 = cpu_seconds(server.pid), os.getloadavg()[0]
             cold, busy_c, wall_c, s1 = asyncio.run(run_client(f"http://127.0.0.1:{port}", [u for _, u in urls],
                                                               args.concurrency))
+            cpu1, load1 = cpu_seconds(server.pid), os.getloadavg()[0]
             warm, busy_w, wall_w, s2 = asyncio.run(run_client(f"http://127.0.0.1:{port}", [u for _, u in urls],
                                                               args.concurrency))
             rss = peak_rss_mb(server.pid)
@@ -228,15 +251,25 @@ def main() -> int:
             lines.append(f"| {name} | {len(lat)} | {pct(lat, 50):.0f} | {pct(lat, 95):.0f} | {pct(lat, 99):.0f} | "
                          f"{lat.max() * 1000:.0f} | {busy} | {wall:.1f} | {st['hits']}/{st['hits'] + st['misses'] - args.warm_ups} |")
         total = s2["hits"] + s2["misses"] - args.warm_ups
+        prep = f"preparation {prep_s:.1f} s (ready {ready_s:.1f} s after start)" if prep_s is not None else \
+            f"ready {ready_s:.1f} s after start"
         lines += ["", f"Cache hit rate over both passes: {s2['hits'] / total:.1%} "
-                  f"(cache holds {s2['bytes'] / 2**20:.1f} MiB in {s2['entries']} tiles); server peak RSS {rss:.0f} MB.", "",
+                  f"(cache holds {s2['bytes'] / 2**20:.1f} MiB in {s2['entries']} tiles); server peak RSS {rss:.0f} MB; "
+                  f"{prep}; {s1['workers']} render workers. Cold pass: the server's processor time "
+                  f"{cpu1 - cpu0:.1f} s ({(cpu1 - cpu0) / len(cold) * 1000:.0f} ms a tile), load average "
+                  f"{load0:.1f} -> {load1:.1f}.", "",
                   "Cold latency by zoom (ms, p50 / p95):", ""]
         for z in ZOOMS:
             sel = cold[levels == level_of(m, z)]
             if len(sel):
                 lines.append(f"- {z:g}x: {pct(sel, 50):.0f} / {pct(sel, 95):.0f} ({len(sel)} tiles)")
+        title = "One tile at each zoom, in process (s)"
+        if args.prepare:
+            from isophote.serve.tiles import prepare_master
+
+            title += f", after the pyramid's preparation ({prepare_master(m, ZOOM):.1f} s in process)"
         rows = one_tile_each_zoom(m, original or None, singles, warm=args.warm_ups > 1)
-        lines += [""] + single_tiles(rows, "One tile at each zoom, in process (s)")
+        lines += [""] + single_tiles(rows, title)
         print("\n".join(lines[-30:]), flush=True)
     if args.append:
         lines = lines[lines.index("") + 1:]  # the sections only

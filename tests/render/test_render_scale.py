@@ -251,3 +251,51 @@ def test_prefetch_gives_the_fields_get_computes(vi, forced_blocks):
     small.capacity = 2 * n * m * blocks.WINDOW_BYTES  # room for two windows of this size
     small.prefetch(keys)
     assert len(small.blocks) <= 2
+
+
+@pytest.mark.parametrize("forced", (False, True))
+def test_prepared_reductions_are_crops_of_their_sample_planes(vi, monkeypatch, forced):
+    """A preparation keeps each reduction's samples over the canvas (one plane a channel and
+    lattice: 1/2 and 1/4 both sample every source pixel, 1/8 every other one), and its tiles
+    are box filters of them, computing no sample: they equal an unprepared copy's renders."""
+    import isophote.render as R
+    from isophote.render.tiles import Tiler
+
+    if forced:
+        monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
+        monkeypatch.setattr(blocks, "BLOCK", 32)
+        monkeypatch.setattr(blocks, "MARGIN", 8)
+        monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
+    prepared, fresh = dataclasses.replace(vi), dataclasses.replace(vi)
+    t = Tiler(prepared, zooms=(0.125, 0.25, 0.5))
+    planes = t.preparation.planes
+    shapes = sorted(p.shape for k, p in planes.items() if k[0] != "lock")
+    assert shapes == sorted([(72, 96)] * 3 + [(36, 48)] * 3)
+    monkeypatch.setattr(R, "fill_samples", None)  # the plane path must not reach it
+    monkeypatch.setattr(strips, "fill_samples", None)
+    tiles = [(0, 0, 64, 64, 8, 8), (64, 32, 32, 40, 4, 5), (0, 0, 32, 32, 8, 8), (64, 64, 32, 8, 8, 2),
+             (0, 0, 16, 16, 8, 8), (80, 48, 16, 24, 8, 12), (0, 0, 96, 72, 48, 36)]
+    got = [t.tile(*tile) for tile in tiles]
+    monkeypatch.undo()
+    if forced:
+        monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
+        monkeypatch.setattr(blocks, "BLOCK", 32)
+        monkeypatch.setattr(blocks, "MARGIN", 8)
+        monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
+    for (x, y, w, h, ow, oh), a in zip(tiles, got):
+        assert np.array_equal(a, fresh.render(crop=(x, y, w, h), width=ow, height=oh)), (x, y, w, h, ow, oh)
+
+
+def test_prepared_one_window_crops_read_their_rows_edges(vi, monkeypatch):
+    """Without a plane (the linear fill here), a prepared one-window level's crops take the
+    edges of their own sample rows from the canvas's buckets (strips.canvas_buckets), with
+    buckets of 5 rows so that crops start past several: the same bytes as whole-canvas edges."""
+    from isophote.render.tiles import Tiler
+
+    monkeypatch.setattr(strips, "SAMPLE_BUCKET", 5)
+    prepared, fresh = dataclasses.replace(vi), dataclasses.replace(vi)
+    t = Tiler(prepared, zooms=(0.5, 1.0), fill="linear")
+    assert any(k[0] == "buckets" for k in t.preparation.windings)
+    for (x, y, w, h, ow, oh) in [(64, 32, 32, 32, 16, 16), (40, 8, 16, 24, 16, 24), (30, 40, 40, 30, 40, 30)]:
+        a = t.tile(x, y, w, h, ow, oh)
+        assert np.array_equal(a, fresh.render(crop=(x, y, w, h), width=ow, height=oh, fill="linear"))

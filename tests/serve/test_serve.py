@@ -383,10 +383,43 @@ def test_an_original_browsers_cannot_show_is_served_as_png(master_files, tmp_pat
 
 
 def test_workers_follow_the_memory_budget(master):
+    from isophote import render
+    from isophote.options import RenderOptions
+    from isophote.render.limits_render import render_bytes as estimate
+
     per = tiles.render_bytes(master)
-    assert per > 6_000_000 * 120  # the canvas grid, not the tile, bounds a render today
+    opts = RenderOptions(crop=(0.0, 0.0, float(master.width), float(master.height)), scale=16.0, max_pixels=2**62)
+    vp = render.viewport(master.vi, opts)
+    whole = estimate(master.vi, vp, [render.channel_state(master.vi, ch, vp, opts, plan_only=True)[0]
+                                     for ch in master.vi.channels], 8, True)
+    # a 256-px tile at the top level (16x) is a crop of the whole 16x render: it needs less,
+    # but no less than the 64 MiB kept for the encode and the request
+    assert 64 << 20 < per < whole + (64 << 20)
     one = TestClient(create_app([master], memory_bytes=per + per // 2)).get("/stats").json()
     assert (one["workers"], one["queue"]) == (1, 4)
     cores = len(os.sched_getaffinity(0))
     many = TestClient(create_app([master], memory_bytes=per * 64)).get("/stats").json()
     assert many["workers"] == min(cores, 64)
+
+
+def test_server_prepares_the_pyramid_at_start(master_files):
+    """With prepare=True (isophote serve) every level of the viewer's pyramid is prepared on
+    a thread of its own; /stats says when, and the tiles are the renders of the regions."""
+    png, path = master_files
+    m = tiles.load_master(path)
+    app = create_app([m], zoom=4, prepare=True)
+    app.state.preparer.join(120)
+    c = TestClient(app)
+    stats = c.get("/stats").json()
+    assert (stats["prepared"], stats["masters"]) == (1, 1) and stats["prepare_s"] > 0
+    assert "prepare_error" not in stats
+    from isophote.render.prepare import prepared
+
+    prep = prepared(m.vi)
+    assert prep is not None and any(k[0] != "lock" for k in prep.planes)  # the reductions' samples
+    for level, col, row in [(2, 0, 0), (3, 0, 0), (4, 0, 0), (5, 0, 0), (6, 0, 0), (8, 0, 0)]:
+        (x, y, w, h), (ow, oh) = dzi.tile_region(m.width, m.height, 4, level, col, row)
+        r = c.get(f"/dzi/grad_files/{level}/{col}_{row}.png")
+        assert r.status_code == 200
+        fresh = isophote.load(path).render(crop=(x, y, w, h), width=ow, height=oh)
+        assert np.array_equal(decode(r.content), fresh), (level, col, row)

@@ -107,5 +107,5 @@ def test_serve_warns_when_one_render_exceeds_the_memory_budget(files, capsys, mo
 
     monkeypatch.setattr(uvicorn.Server, "run", lambda self: None)
     rc, out, err = _run(capsys, "serve", files[1], "--memory-mb", "1")
-    assert rc == 0 and "a render of grad needs about" in err and "1 at a time" not in err
+    assert rc == 0 and "a tile of grad needs about" in err and "1 at a time" not in err
     assert err.count("\n") == 1

@@ -34,7 +34,8 @@ from .blocks import ChannelLevel, make_level, split
 from .levels import auto_supersample, reduction_r
 from .prepare import prepared
 from .sharpen import gains
-from .strips import STRIP_ROWS, BlockCache, SampleEdges, crop_windings, fill_rows, sample_positions, strip_cuts  # noqa: F401,E501
+from .strips import (STRIP_ROWS, BlockCache, SampleEdges, canvas_buckets, crop_windings, fill_rows,  # noqa: F401
+                     fill_samples, finish, sample_positions, strip_cuts)
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,16 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
     guide = blocked[0] if blocked else states[names[0]][0]
     _, ys_guide = sample_positions(vp, guide.r)
     cuts = strip_cuts(vp, guide, ys_guide)
+    planes = prepared_planes(vi, vp, opts, prep) if prep is not None else None
+    if planes is not None:  # a prepared reduction: its samples are the plane's
+        s, c0, c1 = vp.s, vp.col0, vp.col0 + vp.out_w * vp.s
+        for r0, r1 in cuts:
+            a0, a1 = vp.row0 + r0 * s, vp.row0 + r1 * s
+            got = {name: finish(np.ascontiguousarray(planes[name][a0:a1, c0:c1]), tones[name], s) for name in names}
+            out[r0:r1] = _convert(vi, got, depth)
+            if progress is not None:
+                progress(r1 / vp.out_h)
+        return out
     lock = threading.Lock()
     held = {}  # first row of a strip -> the planes of it filled so far
     done = [0]
@@ -162,11 +173,14 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
                     for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
                         last[bi] = r1
             del cuts_ch
-            windings = None
+            windings = buckets = None
             if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
                 # a crop of a prepared master: its strips read the canvas's row windings left of it
                 windings = prepared_windings(vi, ch, cl, vp, prep)
-            return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings), xs, ys, last
+            elif prep is not None and not cl.level.block:
+                # and on a one-window level the edges of its own sample rows, from the canvas's buckets
+                buckets = prepared_buckets(vi, ch, cl, vp, prep)
+            return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings, buckets), xs, ys, last
 
         ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
 
@@ -203,9 +217,7 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
     level = make_level(vi, r, z, len(ch.border))
     if plan_only:
         return level, None
-    tol = 0.05 / max(r, vp.kx, vp.ky)  # flatten finely enough for both the nodes and the samples
-    gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
-    smooth = opts.fill != "linear"
+    tol, gain, smooth = _fill_params(vp, opts, r)
 
     rows = (vp.ky, vp.offy)  # the sample rows: segments that cross none of them nor the nodes' are culled
 
@@ -226,7 +238,65 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
     return cl, cache
 
 
+def _fill_params(vp: Viewport, opts: RenderOptions, r: float):
+    """(flattening tolerance, sharpening gains, smooth) of a channel's fill at r nodes a
+    source pixel for this viewport."""
+    tol = 0.05 / max(r, vp.kx, vp.ky)  # flatten finely enough for both the nodes and the samples
+    gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
+    return tol, gain, opts.fill != "linear"
+
+
 _REGIONS_LOCK = threading.Lock()
+
+
+def _plane_key(vi, ch, vp: Viewport, opts: RenderOptions):
+    """What a channel's samples depend on besides their position (a preparation's planes)."""
+    level, _ = channel_state(vi, ch, vp, opts, plan_only=True)
+    tol, gain, smooth = _fill_params(vp, opts, level.r)
+    return ch.name, tol, level, vp.kx, vp.ky, opts.fill, opts.distance, gain
+
+
+def plane_lattice(vi, vp: Viewport) -> tuple[int, int] | None:
+    """(rows, columns) of the canvas's sample plane at this viewport's lattice, or None
+    where a preparation keeps none: only reductions whose samples are at most one a source
+    pixel (kx, ky <= 1) on the canvas's own lattice (no offset), so that a plane holds at
+    most as many samples as the canvas has pixels."""
+    if max(vp.kx, vp.ky) / vp.s >= 1.0 - 1e-9 or max(vp.kx, vp.ky) > 1.0 + 1e-12 or vp.offx or vp.offy:
+        return None
+    return int(np.ceil(vi.height * vp.ky - 1e-9)), int(np.ceil(vi.width * vp.kx - 1e-9))
+
+
+def make_plane(vi, ch, vp: Viewport, opts: RenderOptions, prep) -> np.ndarray:
+    """One channel's samples over the whole canvas at this viewport's lattice (float32, before
+    the tone curve and the box filter), from the preparation's level and block fields: the
+    samples that every crop at this lattice reads (a crop is the same region of the full
+    render), so a tile of a prepared reduction is a copy and a box filter of them."""
+    nr, nc = plane_lattice(vi, vp)
+    cl, cache = channel_state(vi, ch, vp, opts, prep)
+    pv = Viewport(nc, nr, 1, vp.kx, vp.ky, 0, 0, 0.0, 0.0)
+    xs, ys = sample_positions(pv, cl.level.r)
+    sedges = SampleEdges(cl, pv, nr)
+    plane = np.empty((nr, nc), np.float32)
+    with cache.lock:
+        for r0, r1 in strip_cuts(pv, cl.level, ys):
+            plane[r0:r1] = fill_samples(cache, sedges, pv, xs, ys, r0, r1, opts.fill == "flat")
+        for key in list(cache.blocks):  # the plane's tiles read no field: let the level's go
+            cache.drop(*key)
+    return plane
+
+
+def prepared_planes(vi, vp: Viewport, opts: RenderOptions, prep):
+    """{channel: its prepared sample plane} where the preparation holds one for every
+    channel at this viewport's lattice and the viewport lies in it, else None."""
+    if not prep.planes or plane_lattice(vi, vp) is None:
+        return None
+    planes = {}
+    for ch in vi.channels:
+        plane = prep.planes.get(_plane_key(vi, ch, vp, opts))
+        if plane is None or vp.row0 + vp.out_h * vp.s > plane.shape[0] or vp.col0 + vp.out_w * vp.s > plane.shape[1]:
+            return None
+        planes[ch.name] = plane
+    return planes
 
 
 def prepared_windings(vi, ch, cl, vp: Viewport, prep):
@@ -234,6 +304,13 @@ def prepared_windings(vi, ch, cl, vp: Viewport, prep):
     (strips.crop_windings), made once."""
     return prep.get(prep.windings, (ch.name, cl.tol, cl.level, vp.kx, vp.offx, vp.ky, vp.offy),
                     lambda: crop_windings(cl, vp, vi.width, vi.height))
+
+
+def prepared_buckets(vi, ch, cl, vp: Viewport, prep):
+    """The preparation's buckets of a one-window level's edges by the canvas's sample rows at
+    this viewport's lattice (strips.canvas_buckets), made once."""
+    return prep.get(prep.windings, ("buckets", ch.name, cl.tol, cl.level, vp.ky, vp.offy),
+                    lambda: canvas_buckets(cl, vp, vi.height))
 
 
 def _convert(vi, planes, depth) -> np.ndarray:

@@ -12,10 +12,21 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
 - for a blocked level that crops read, the windings of every sample row left of each
   128-column bin (4 bytes a row and bin: 0.5 MB a channel at 1x for 16 MP, 33 MB at 8:1;
   one more pass over the segments), so that a tile rasterises its own columns only;
-- the block fields, least recently used first out, within ``field_bytes`` in all
-  (WINDOW_BYTES a node of a window).
+- for a one-window level, its edges by buckets of the canvas's sample rows
+  (strips.canvas_buckets: 8 bytes an edge and bucket it reaches), so that a crop maps and
+  rasterises the edges of its own rows only;
+- for a reduction prepared with ``prepare(vi, zooms)`` (a zoom below 1 whose samples are at
+  most one a source pixel: render.plane_lattice), each channel's samples over the whole
+  canvas at its lattice (render.make_plane: float32, so at most 4 bytes a canvas pixel and
+  channel a lattice, and the lattices of 1:2, 1:4, 1:8, ... add to at most 16/3 bytes a pixel
+  and channel; 1:2 and 1:4 share one, every source pixel's centre): a tile there is a copy of
+  its samples and the box filter (the same bytes, a crop being the same region of the full
+  render). Making one costs the level's block fields once (let go after) and the samples of
+  the whole reduction at that lattice;
+- the block fields, least recently used first out, within ``field_bytes`` for each zoom
+  (field_bytes / channels a channel; WINDOW_BYTES a node of a window).
 Which zooms are prepared at once is the caller's choice (default 1x); the others are
-prepared by the first tile that needs them.
+prepared by the first tile that needs them, without the planes.
 """
 
 from __future__ import annotations
@@ -30,7 +41,7 @@ FIELD_BYTES = 384 * 2**20  # block fields kept by a preparation, all channels an
 class Preparation:
     def __init__(self, field_bytes: int = FIELD_BYTES):
         self.field_bytes = field_bytes
-        self.edges, self.levels, self.caches, self.windings = {}, {}, {}, {}
+        self.edges, self.levels, self.caches, self.windings, self.planes = {}, {}, {}, {}, {}
         self.lock = threading.Lock()
 
     def get(self, table: dict, key, make):
@@ -47,10 +58,12 @@ def prepared(vi):
     return _PREPARED.get(vi)
 
 
-def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES) -> Preparation:
+def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = True) -> Preparation:
     """Prepare (once) what renders of ``vi`` at these zooms (output pixels per source pixel)
-    share, and keep it with ``vi``; later renders and tiles reuse it."""
-    from . import channel_state, prepared_windings, viewport
+    share, and keep it with ``vi``; later renders and tiles reuse it. ``planes``: also the
+    sample planes of the reductions among them (see the module docstring)."""
+    from .. import threads
+    from . import _plane_key, channel_state, make_plane, plane_lattice, prepared_buckets, prepared_windings, viewport
     from ..options import RenderOptions
 
     prep = _PREPARED.get(vi)
@@ -63,4 +76,12 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES) -> Preparation:
             cl, _ = channel_state(vi, ch, vp, opts, prep)
             if cl.level.block:  # what its crops (tiles) read
                 prepared_windings(vi, ch, cl, vp, prep)
+            else:
+                prepared_buckets(vi, ch, cl, vp, prep)
+        if planes and plane_lattice(vi, vp) is not None:  # a reduction: its samples, once
+            def plane(ch, vp=vp, opts=opts):
+                prep.get(prep.planes, _plane_key(vi, ch, vp, opts), lambda: make_plane(vi, ch, vp, opts, prep))
+
+            with threads.pool(threads.available(len(vi.channels))) as pool:
+                list(pool.map(plane, vi.channels))
     return prep

@@ -40,7 +40,7 @@ class Buckets:
         order = np.argsort(bucket, kind="stable")
         self.index = edge[order]
         self.starts = np.searchsorted(bucket[order], np.arange(n + 1))
-        self.n = n
+        self.n, self.size = n, size
 
     def of(self, b0: int, b1: int) -> np.ndarray:
         """Edges reaching buckets b0..b1 (inclusive), each once, in original order."""
@@ -113,10 +113,15 @@ class SampleEdges:
     depend on which extra edges a strip is given (a winding sum of the edges that cross its
     rows), so any strip cut gives the same samples."""
 
-    def __init__(self, cl, vp, n_rows: int, windings=None):
+    def __init__(self, cl, vp, n_rows: int, windings=None, buckets=None):
         self.cl, self.vp = cl, vp
         self.windings = windings  # (row_windings of the whole canvas, its step), for crops
+        self.buckets = buckets  # a preparation's (canvas_buckets): of the canvas's sample rows
+        self.X0 = None
         if cl.level.block:
+            return
+        self.row0 = vp.row0 if buckets is not None else 0  # the buckets' first sample row
+        if buckets is not None:  # a crop of a prepared master: its rows' edges only (band)
             return
         x0, y0, x1, y1, self.src = cl.edges
         self.X0, self.X1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx
@@ -134,8 +139,13 @@ class SampleEdges:
             tband, *_ = cl.rasterise(cl.strip_segments(ys[a0], ys[a0 + n - 1]), vp.kx, vp.offx, vp.ky, vp.offy, False,
                                      vp.row0 + a0, vp.col0, n, m, False)
         else:
-            sel = self.buckets.of(a0 // SAMPLE_BUCKET, (a0 + n - 1) // SAMPLE_BUCKET)
-            X0, Y0, X1, Y1, src = self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel]
+            b0, b1 = self.row0 + a0, self.row0 + a0 + n - 1
+            sel = self.buckets.of(b0 // self.buckets.size, b1 // self.buckets.size)
+            if self.X0 is None:  # the canvas's buckets: map only the edges these rows read (the same values)
+                x0, y0, x1, y1, src = (v[sel] for v in cl.edges)
+                X0, X1, Y0, Y1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+            else:
+                X0, Y0, X1, Y1, src = self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel]
             tband, *_ = rasterise(X0, Y0, X1, Y1, src, vp.row0 + a0, vp.col0, n, m, False)
         tband += np.int16(cl.ch.base_band)
         return tband
@@ -156,6 +166,17 @@ class SampleEdges:
                                 vp.col0 + m - kc + 1, False)
         left = W[vp.row0 + a0:vp.row0 + a0 + n, c] - part[:, 0]
         return (part[:, vp.col0 - kc + 1:] + left[:, None]).astype(np.int16)
+
+
+def canvas_buckets(cl, vp, canvas_h: float) -> Buckets:
+    """A one-window level's edges by the buckets of SAMPLE_BUCKET sample rows of the whole
+    canvas at this viewport's lattice (global sample rows from 0): what a preparation keeps so
+    that a crop maps and rasterises only the edges of its own rows (SampleEdges.band). A
+    strip given more edges than those that cross its rows has the same bands."""
+    x0, y0, x1, y1, _ = cl.edges
+    Y0, Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+    n_rows = int(np.ceil(canvas_h * vp.ky - vp.offy)) + 1
+    return Buckets(np.minimum(Y0, Y1), np.maximum(Y0, Y1), SAMPLE_BUCKET, max(1, -(-n_rows // SAMPLE_BUCKET)))
 
 
 def crop_windings(cl, vp, canvas_w: float, canvas_h: float):
@@ -194,6 +215,23 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
               tone, last_use=None) -> np.ndarray:
     """Output rows [out_r0, out_r1) of one channel, (rows, out_w) float32. last_use: block
     row -> the last output row that reads it; blocks past it are let go."""
+    return finish(fill_samples(cache, sedges, vp, xs, ys, out_r0, out_r1, flat, last_use), tone, vp.s)
+
+
+def finish(out: np.ndarray, tone, s: int) -> np.ndarray:
+    """A strip's samples (n, m), C-contiguous, to its output pixels: the tone curve, then the
+    s x s box filter."""
+    out = apply_tone_curve(out, tone)
+    if s > 1:
+        n, m = out.shape
+        out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
+    return out
+
+
+def fill_samples(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, out_r1: int, flat: bool,
+                 last_use=None) -> np.ndarray:
+    """The samples of output rows [out_r0, out_r1) of one channel, (rows x s, out_w x s)
+    float32, before the tone curve and the box filter (finish)."""
     cl = cache.cl
     lv = cl.level
     s = vp.s
@@ -230,7 +268,4 @@ def fill_rows(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int, o
             for bi, bj, *_ in group:
                 if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
                     cache.drop(bi, bj)  # no later strip reads this block
-    out = apply_tone_curve(out, tone)
-    if s > 1:
-        out = out.reshape(n // s, s, m // s, s).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
     return out

@@ -30,7 +30,7 @@ from starlette.staticfiles import StaticFiles
 from ..errors import IsophoteError
 from . import dzi, iiif
 from .page import BROWSER_FORMATS, STATIC, ZOOM, viewer_page
-from .tiles import FILLS, render_bytes, render_contours, render_tile
+from .tiles import FILLS, prepare_master, render_bytes, render_contours, render_tile
 
 CACHE_BYTES = 256 << 20
 MAX_AGE = 3600
@@ -91,24 +91,51 @@ def default_memory() -> int:
         return 4 << 30
 
 
-def pool_size(masters, workers=None, memory_bytes=None):
+def pool_size(masters, workers=None, memory_bytes=None, zoom: int = ZOOM):
     """(workers, memory budget, [(id, bytes) of masters one render of which exceeds it])."""
     if workers is not None:
         return workers, None, []
     memory = memory_bytes or default_memory()
-    per_render = max((render_bytes(m) for m in masters), default=1)
+    need = {m.id: render_bytes(m, zoom) for m in masters}
+    per_render = max(need.values(), default=1)
     workers = max(1, min(len(os.sched_getaffinity(0)), memory // per_render))
-    return workers, memory, [(m.id, render_bytes(m)) for m in masters if render_bytes(m) > memory]
+    return workers, memory, [(m.id, b) for m, b in zip(masters, need.values()) if b > memory]
+
+
+class Preparer:
+    """Prepares the masters' pyramids (tiles.prepare_master) one after another on a thread
+    of its own, started with the server; tiles asked for meanwhile wait for their level."""
+
+    def __init__(self, masters, zoom: int):
+        import threading
+
+        self.done, self.seconds, self.error = 0, 0.0, None
+        self._thread = threading.Thread(target=self._run, args=(list(masters), zoom), name="isophote-prepare",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self, masters, zoom):
+        try:
+            for m in masters:
+                self.seconds += prepare_master(m, zoom)
+                self.done += 1
+        except Exception as e:  # noqa: BLE001 - tiles still render, each preparing its own level
+            self.error = f"{type(e).__name__}: {e}"
+
+    def join(self, timeout=None) -> None:
+        self._thread.join(timeout)
 
 
 def create_app(masters, workers: int | None = None, queue: int | None = None, cache_bytes: int = CACHE_BYTES,
-               zoom: int = ZOOM, memory_bytes: int | None = None) -> Starlette:
+               zoom: int = ZOOM, memory_bytes: int | None = None, prepare: bool = False) -> Starlette:
     """The app serving ``masters`` (a list of tiles.Master with distinct ids).
 
     workers : render threads; by default one a usable core, but no more than
         ``memory_bytes`` (half the physical memory by default) over the largest master's
         tiles.render_bytes, and at least one.
     queue : renders admitted at once (running or waiting), 4 x workers by default.
+    prepare : prepare every master's pyramid levels at once, on a thread of its own
+        (Preparer; ``isophote serve`` does); otherwise the first tile of a level prepares it.
     """
     from ..imageio import encode_image
 
@@ -116,8 +143,9 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
     by_id = {m.id: m for m in masters}
     if len(by_id) != len(masters):
         raise ValueError("two masters share an id (file stem)")
-    workers, memory, over = pool_size(masters, workers, memory_bytes)
+    workers, memory, over = pool_size(masters, workers, memory_bytes, zoom)
     renderer = Renderer(workers, queue or 4 * workers, cache_bytes)
+    preparer = Preparer(masters, zoom) if prepare else None
 
     def master_of(request):
         return by_id.get(request.path_params["id"])
@@ -212,8 +240,13 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
 
     async def stats(request):
         c = renderer.cache
-        return JSONResponse({"hits": c.hits, "misses": c.misses, "bytes": c.size, "entries": len(c),
-                             "admitted": renderer.admitted, "workers": workers, "queue": renderer.limit})
+        doc = {"hits": c.hits, "misses": c.misses, "bytes": c.size, "entries": len(c),
+               "admitted": renderer.admitted, "workers": workers, "queue": renderer.limit}
+        if preparer is not None:  # masters prepared so far, and the seconds that took
+            doc.update(prepared=preparer.done, masters=len(masters), prepare_s=round(preparer.seconds, 3))
+            if preparer.error:
+                doc["prepare_error"] = preparer.error
+        return JSONResponse(doc)
 
     tile_path = "/{id}/{region}/{size}/{rotation}/{qf}"
     routes = [
@@ -231,6 +264,7 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
     ]
     app = Starlette(routes=routes)
     app.state.renderer = renderer
+    app.state.preparer = preparer
     app.state.memory = memory
     app.state.over_budget = over  # (id, bytes a render) of masters one render of which exceeds it
     return app

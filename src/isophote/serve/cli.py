@@ -27,9 +27,11 @@ def add_parser(subparsers, parents=()) -> None:
     p.add_argument("--workers", type=int, default=None,
                    help="render threads (default: the usable cores, as many as --memory-mb holds)")
     p.add_argument("--memory-mb", type=int, default=None,
-                   help="memory for renders in MiB (default: half the physical memory); a render of a "
-                   "large master needs its whole canvas's distance grid today (docs/serve.md)")
+                   help="memory for renders in MiB (default: half the physical memory); the render pool "
+                   "holds as many tiles of the largest master as fit (docs/serve.md)")
     p.add_argument("--cache-mb", type=int, default=256, help="tile cache size in MiB (default 256)")
+    p.add_argument("--no-prepare", dest="prepare", action="store_false",
+                   help="do not prepare the pyramid's levels at start (each level's first tile then does)")
     p.set_defaults(func=run_serve)
 
     p = subparsers.add_parser(
@@ -86,11 +88,11 @@ def run_serve(args) -> int:
     if args.memory_mb is not None and args.memory_mb < 1:
         raise OptionError("--memory-mb must be at least 1")
     app = create_app(masters, workers=args.workers, cache_bytes=max(1, args.cache_mb) << 20,
-                     memory_bytes=None if args.memory_mb is None else args.memory_mb << 20)
+                     memory_bytes=None if args.memory_mb is None else args.memory_mb << 20, prepare=args.prepare)
     for mid, need in app.state.over_budget:
-        sys.stderr.write(f"isophote: warning: a render of {mid} needs about {need / 2**30:.1f} GiB (its distance "
-                         f"grid spans the canvas), more than the {app.state.memory / 2**30:.1f} GiB budget; "
-                         "renders run one at a time (--memory-mb sets the budget)\n")
+        sys.stderr.write(f"isophote: warning: a tile of {mid} needs about {need / 2**30:.1f} GiB, more than the "
+                         f"{app.state.memory / 2**30:.1f} GiB budget; renders run one at a time (--memory-mb sets "
+                         "the budget)\n")
     if args.host not in LOOPBACK:
         sys.stderr.write(f"isophote: warning: binding {args.host}: the server has no authentication; "
                          "anyone who can reach this address can read the masters\n")

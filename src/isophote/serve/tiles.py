@@ -6,8 +6,9 @@ is a region (x, y, w, h) of the master rendered to (out_w, out_h) output pixels:
 ``VectorImage.render(crop=region, width=out_w, height=out_h)``, which equals the same region
 of the full render at that scale, so tiles of one level join seamlessly.
 
-render_tile is the function to swap when a region-bounded renderer arrives (today a crop
-still computes the distance grid over the whole canvas: benchmarks/results/serve_load.md).
+A tile reads the master's preparation (render/prepare.py): prepare_master makes it for
+every level of the viewer's pyramid at once (the server does at start, off the event loop),
+after which a tile costs its own blocks' fields and samples (benchmarks/results/serve_load.md).
 """
 
 from __future__ import annotations
@@ -86,22 +87,53 @@ def find_masters(path) -> list:
     return [path]
 
 
-NODE_CHANNEL_BYTES = 120  # peak bytes of one render: a distance node of one channel,
-POINT_BYTES = 700  # and a control point of the master (the crossings its contours make)
+def level_zooms(master: Master, zoom: int) -> list:
+    """Output pixels per source pixel of the viewer pyramid's levels (dzi.py), top first,
+    down to 1:64 or further while a level is larger than one tile (those below cost nothing)."""
+    from . import dzi
+
+    top = dzi.top_level(master.width, master.height, zoom)
+    out = []
+    for level in range(top, -1, -1):
+        lw, lh = dzi.level_size(master.width, master.height, zoom, level)
+        m = zoom / 2 ** (top - level)
+        if m < 1 / 64 and max(lw, lh) <= dzi.TILE:
+            break
+        out.append(m)
+    return out
 
 
-def render_bytes(master: Master) -> int:
-    """Peak bytes one render_tile of this master may take, whatever the tile: today the
-    distance grid spans the canvas (up to max(NODE_BUDGET, w x h) nodes a channel, the
-    channels' grids built at once), and the contours' crossings with it follow the master's
-    points. Fitted on two masters, one render at a time: a 5.2 MP art crop (5.2 M nodes, 0.58 M
-    points) 2.2 GB a render (4.4 GB peak RSS with two), the 16 MP mosaic (16.4 M nodes, 16.6 M
-    points) 17.6 GB peak over tiles at 1:8, 1:1 and 8:1; this gives 2.8 and 17.8 GB."""
+def render_bytes(master: Master, zoom: int = 16) -> int:
+    """Peak bytes one render_tile of this master may take: the renderer's own estimate
+    (render/limits_render.py, the one it checks before it starts) for a full 256-px tile at
+    each level of the viewer's pyramid, the largest, with the master's preparation counted
+    in (its regions and kept blocks); plus 64 MiB for the encode and the request."""
     from .. import render
+    from ..options import RenderOptions
+    from ..render.limits_render import render_bytes as estimate
+    from . import dzi
 
-    nodes = max(getattr(render, "NODE_BUDGET", 6_000_000), master.width * master.height)
-    points = sum(len(c.points) for c in master.vi.channels)
-    return nodes * NODE_CHANNEL_BYTES * len(master.vi.channels) + points * POINT_BYTES + (256 << 20)
+    vi = master.vi
+    worst = 0
+    for m in level_zooms(master, zoom):
+        w, h = min(master.width, dzi.TILE / m), min(master.height, dzi.TILE / m)
+        opts = RenderOptions(crop=(0.0, 0.0, w, h), width=max(1, round(w * m)), height=max(1, round(h * m)),
+                             max_pixels=2**62)
+        vp = render.viewport(vi, opts)
+        levels = [render.channel_state(vi, ch, vp, opts, plan_only=True)[0] for ch in vi.channels]
+        worst = max(worst, estimate(vi, vp, levels, 8, True))
+    return worst + (64 << 20)
+
+
+def prepare_master(master: Master, zoom: int = 16) -> float:
+    """Prepare every level of the viewer's pyramid (render/prepare.py: segment indexes,
+    canvas-wide regions, crop windings), so that no tile request pays for its level's;
+    returns the seconds it took. Tiles asked for meanwhile wait for their level's part."""
+    import time
+
+    t = time.perf_counter()
+    master.vi.prepare(level_zooms(master, zoom))
+    return time.perf_counter() - t
 
 
 def render_tile(master: Master, region, size, fill: str = "diffusion") -> np.ndarray:
