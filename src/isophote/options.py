@@ -27,7 +27,7 @@ from .limits import MAX_PIXELS
 #   balanced high's noise model, range and pruning with Y every 6 and U, V every 5: fewer
 #            bytes than paper and more faithful on every measure. On photographs smooth almost
 #            everywhere (>= 85 % of the luma's pixels with a local noise deviation under 1 grey
-#            level: skies, mist, out-of-focus scenes) it takes Y and U, V every 4 and smooths
+#            level: skies, mist, out-of-focus scenes) it takes Y and U, V every 3 and smooths
 #            their grain first (smooth_step, smooth_grain; encoder/noise.py adapt_steps), where
 #            coarser levels terrace; textured photographs are encoded as before.
 # No preset prunes Y (its small loops are texture, which SSIMULACRA2 sees). The default is
@@ -45,7 +45,7 @@ PRESETS = {
                     smooth_grain=0.0, smooth_step=0.0),
     "balanced": dict(y_step=6.0, uv_step=5.0, alpha_step=6.0, level_range=FULL_RANGE, local_noise=3.0,
                      prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
-                     smooth_grain=2.0, smooth_step=4.0),
+                     smooth_grain=2.0, smooth_step=3.0),
     "high": dict(y_step=3.0, uv_step=3.0, alpha_step=4.0, level_range=FULL_RANGE, local_noise=3.0,
                  prune_area_y=0.0, prune_area_uv=16.0, prune_contrast=0.5, max_tolerance=1.0,
                  smooth_grain=2.0, smooth_step=2.0),

@@ -107,11 +107,11 @@ def test_smooth_photographs_get_the_finer_step_and_textured_ones_keep_theirs():
     from isophote.options import EncodeOptions
 
     opts = EncodeOptions(preset="balanced").resolved()
-    assert (opts.y_step, opts.uv_step, opts.smooth_step) == (6.0, 5.0, 4.0)
+    assert (opts.y_step, opts.uv_step, opts.smooth_step) == (6.0, 5.0, 3.0)
     high = EncodeOptions(preset="high").resolved()
     assert (adapt_steps(high, _sky(noise=0.5)[..., 0]).y_step, high.smooth_grain) == (2.0, 2.0)
     smooth = adapt_steps(opts, _sky(noise=0.5)[..., 0])
-    assert (smooth.y_step, smooth.uv_step) == (4.0, 4.0)
+    assert (smooth.y_step, smooth.uv_step) == (3.0, 3.0)
     texture = 128.0 + np.random.default_rng(4).normal(0.0, 6.0, (96, 96))
     assert (adapt_steps(opts, texture).y_step, adapt_steps(opts, texture).uv_step) == (6.0, 5.0)
     # explicit steps are kept as given; the paper preset has no finer step
@@ -125,7 +125,7 @@ def test_a_smooth_photograph_is_encoded_on_the_finer_levels():
 
     img = _u8(_sky(64, 80, noise=0.5))
     vi = isophote.encode(img)
-    assert np.allclose(np.diff(vi.channel("Y").levels), 4.0)
+    assert np.allclose(np.diff(vi.channel("Y").levels), 3.0)
     assert np.allclose(np.diff(isophote.encode(img, preset="paper").channel("Y").levels), 10.0)
 
 
