@@ -50,7 +50,6 @@ def forced_blocks(monkeypatch):
     monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
     monkeypatch.setattr(blocks, "BLOCK", 32)
     monkeypatch.setattr(blocks, "MARGIN", 8)
-    monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
 
 
 CROPS = {0.125: [(16, 8, 64, 48), (40, 24, 56, 48), (0, 0, 96, 8)],

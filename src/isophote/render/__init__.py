@@ -31,7 +31,7 @@ from ..errors import LimitError
 from ..options import RenderOptions, make
 from ..geometry import segment_starts
 from .blocks import ChannelLevel, make_level, split
-from .levels import auto_supersample, reduction_r
+from .levels import auto_supersample, level_r
 from .prepare import prepared
 from .sharpen import gains
 from .strips import (STRIP_ROWS, BlockCache, SampleEdges, canvas_buckets, crop_windings, fill_rows,  # noqa: F401
@@ -210,11 +210,12 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
     """A channel's ChannelLevel and BlockCache for this viewport (from the preparation where
     there is one); with ``plan_only`` just its Level, and nothing is computed."""
     z = max(vp.kx, vp.ky) / vp.s
+    chroma = ch.name in ("U", "V")
     if z > 1.0 + 1e-9:
-        r = float(node_resolution(vi.width, vi.height, z, chroma=ch.name in ("U", "V")))
+        r, fraction = float(node_resolution(vi.width, vi.height, z, chroma=chroma)), 1.0
     else:
-        r = reduction_r(z)
-    level = make_level(vi, r, z, len(ch.border))
+        r, fraction = level_r(z, chroma)
+    level = make_level(vi, r, z, len(ch.border), fraction)
     if plan_only:
         return level, None
     tol, gain, smooth = _fill_params(vp, opts, r)

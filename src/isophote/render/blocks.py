@@ -59,6 +59,7 @@ class Level:
     nr: int
     nc: int
     block: int  # nodes a side; 0: one window over the level
+    margin: int = 0  # nodes of window around a block (none on a one-window level)
 
     @property
     def nodes(self) -> int:
@@ -73,21 +74,27 @@ class Level:
         """(i0, j0, n, m): the window of block (bi, bj), clipped to the level."""
         if not self.block:
             return 0, 0, self.nr, self.nc
-        B = self.block
-        i0, j0 = max(bi * B - MARGIN, 0), max(bj * B - MARGIN, 0)
-        i1, j1 = min((bi + 1) * B + MARGIN, self.nr), min((bj + 1) * B + MARGIN, self.nc)
+        B, M = self.block, self.margin
+        i0, j0 = max(bi * B - M, 0), max(bj * B - M, 0)
+        i1, j1 = min((bi + 1) * B + M, self.nr), min((bj + 1) * B + M, self.nc)
         return i0, j0, i1 - i0, j1 - j0
 
 
 SINGLE_SEGMENTS = 600_000  # a channel with more segments is flattened a window at a time
 
 
-def make_level(vi, r: float, zoom: float, n_segments: int = 0) -> Level:
-    """The level at r nodes a source pixel: one window when small, else blocks."""
+def make_level(vi, r: float, zoom: float, n_segments: int = 0, fraction: float = 1.0) -> Level:
+    """The level at r nodes a source pixel: one window when small, else blocks of
+    block_size nodes with MARGIN nodes of margin.
+
+    ``fraction``: the level's nodes a side per node of the luma's level at this zoom (the
+    chroma's, levels.CHROMA_NODES): such a level is one window where the luma's is, so that
+    a tile's chroma is blocked as its luma is."""
     nr, nc = int(np.ceil(vi.height * r - 1e-9)), int(np.ceil(vi.width * r - 1e-9))
-    small = nr * nc <= SINGLE_NODES and n_segments <= SINGLE_SEGMENTS
-    block = 0 if small else block_size(zoom / r)
-    return Level(r, nr, nc, block)
+    luma_nodes = int(np.ceil(vi.height * r / fraction - 1e-9)) * int(np.ceil(vi.width * r / fraction - 1e-9))
+    if luma_nodes <= SINGLE_NODES and n_segments <= SINGLE_SEGMENTS:
+        return Level(r, nr, nc, 0)
+    return Level(r, nr, nc, block_size(zoom / r), MARGIN)
 
 
 class ChannelLevel:

@@ -27,6 +27,7 @@ import math
 REDUCTION_NODES = 4  # most nodes a side per output pixel at powers of two 1/2 and below
 REDUCTION_FINEST = 0.5  # nodes a source pixel at 1/2 and below, at most (see the module docstring)
 REDUCTION_SAMPLES = 4  # most samples a side per output pixel below 1x
+CHROMA_NODES = 1.0  # chroma nodes a side per luma node at and below 1x; 1/2 and 1/4 lose (results/chroma_nodes.md)
 
 
 def _pow2_at_least(x: float) -> float:
@@ -39,6 +40,13 @@ def reduction_r(z: float) -> float:
     output pixel)."""
     p = _pow2_at_least(z)
     return p if p >= 1.0 else min(REDUCTION_FINEST, REDUCTION_NODES * p)
+
+
+def level_r(z: float, chroma: bool = False) -> tuple[float, float]:
+    """(nodes per source pixel, fraction of the luma's nodes a side) at and below 1x:
+    reduction_r's for the luma, CHROMA_NODES of it for the chroma."""
+    f = CHROMA_NODES if chroma else 1.0
+    return reduction_r(z) * f, f
 
 
 def auto_supersample(requested: int, z: float) -> int:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from ..errors import LimitError
 from ..limits import MAX_PIXELS
-from .blocks import MARGIN, WINDOW_BYTES, WINDOW_PEAK_BYTES
+from .blocks import WINDOW_BYTES, WINDOW_PEAK_BYTES
 
 MEMORY_PER_PIXEL = 40
 REGION_PASS_BYTES = 16  # band 2, winding deltas 4 (transient), union-find parents 8, labels 4 (kept, counted apart)
@@ -30,7 +30,7 @@ def render_bytes(vi, vp, levels, depth, prepared: bool = False) -> int:
             continue
         total += lv.nodes * 4
         pass_peak = max(pass_peak, lv.nodes * REGION_PASS_BYTES)
-        w = (lv.block + 2 * MARGIN) ** 2
+        w = (lv.block + 2 * lv.margin) ** 2
         total += w * WINDOW_PEAK_BYTES
         if vp.s > 1 or prepared:
             total += lv.blocks()[1] * w * WINDOW_BYTES
