@@ -298,3 +298,25 @@ def test_prepared_one_window_crops_read_their_rows_edges(vi, monkeypatch):
     for (x, y, w, h, ow, oh) in [(64, 32, 32, 32, 16, 16), (40, 8, 16, 24, 16, 24), (30, 40, 40, 30, 40, 30)]:
         a = t.tile(x, y, w, h, ow, oh)
         assert np.array_equal(a, fresh.render(crop=(x, y, w, h), width=ow, height=oh, fill="linear"))
+
+
+def test_chroma_at_half_the_luma_nodes(vi, monkeypatch):
+    """levels.CHROMA_NODES (1 by default; results/chroma_nodes.md): at 1/2 the U and V levels
+    have half the luma's nodes a side at 1x and below, crops still equal the full render's
+    regions, and on this image of ramps and flat shapes the render stays within a few levels
+    of the full-resolution chroma's (the luma's level is untouched)."""
+    from isophote.render import levels
+    from isophote.render import channel_state, viewport
+    from isophote.options import RenderOptions
+
+    full = vi.render()
+    monkeypatch.setattr(levels, "CHROMA_NODES", 0.5)
+    vp = viewport(vi, RenderOptions())
+    nodes = {ch.name: channel_state(vi, ch, vp, RenderOptions(), plan_only=True)[0] for ch in vi.channels}
+    assert (nodes["Y"].nr, nodes["Y"].nc) == (72, 96)
+    assert (nodes["U"].nr, nodes["U"].nc) == (nodes["V"].nr, nodes["V"].nc) == (36, 48)
+    half = vi.render()
+    d = np.abs(half.astype(int) - full.astype(int))
+    assert 0 < d.mean() < 1.0 and d.max() <= 40
+    for scale in (0.25, 1):
+        _check_crops(vi, scale, CROPS[scale])
