@@ -264,7 +264,6 @@ def test_prepared_reductions_are_crops_of_their_sample_planes(vi, monkeypatch, f
         monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
         monkeypatch.setattr(blocks, "BLOCK", 32)
         monkeypatch.setattr(blocks, "MARGIN", 8)
-        monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
     prepared, fresh = dataclasses.replace(vi), dataclasses.replace(vi)
     t = Tiler(prepared, zooms=(0.125, 0.25, 0.5))
     planes = t.preparation.planes
@@ -280,7 +279,6 @@ def test_prepared_reductions_are_crops_of_their_sample_planes(vi, monkeypatch, f
         monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
         monkeypatch.setattr(blocks, "BLOCK", 32)
         monkeypatch.setattr(blocks, "MARGIN", 8)
-        monkeypatch.setattr("isophote.render.limits_render.MARGIN", 8)
     for (x, y, w, h, ow, oh), a in zip(tiles, got):
         assert np.array_equal(a, fresh.render(crop=(x, y, w, h), width=ow, height=oh)), (x, y, w, h, ow, oh)
 
