@@ -2,10 +2,10 @@
 
 Every level is cut into blocks (blocks.SINGLE_NODES = 0, as a canvas over 2.5 MP is), so
 the wide corpus's 1280 x 800 photos and the five corpus photos show what blocks do to a
-big master's render. Candidates "YB/YM/CB/CM[/R]": the luma's block and margin and the
-chroma's (nodes at the level; 0: the default), and blocks.REACH_STEPS (default: the module's). For each photo (encoded once, kept in --cache) and
+big master's render. Candidates "YB/YM/CB/CM": the luma's block and margin and the
+chroma's (nodes at the level; 0: the default). For each photo (encoded once, kept in --cache) and
 candidate: 1x PSNR against the original, PSNR of the U and V planes, SSIMULACRA2, the
-reductions' PSNR against the box reduction of the original, and the render's processor time;
+reductions' PSNR against the box reduction of the original, and each render's processor time;
 --single adds the one-window render (the whole canvas's fields: what blocks approach).
 
     python benchmarks/studies/block_size.py [--candidates 256/32/256/32,512/32/512/32]
@@ -21,19 +21,15 @@ import os
 import sys
 import threading
 
-import numpy as np
-
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 
-from chroma_nodes import cpu, master, uv_psnr  # noqa: E402
+from chroma_nodes import master, measure, print_tables  # noqa: E402
 from corpus import load_corpus  # noqa: E402
-from peers import downscale  # noqa: E402
 from quality_wide import wide_photos  # noqa: E402
 
 import isophote.render as R  # noqa: E402
-from isophote import metrics  # noqa: E402
 from isophote.render import blocks  # noqa: E402
 
 MAKE_LEVEL = blocks.make_level
@@ -47,7 +43,6 @@ def channel_state(vi, ch, *a, **k):
 
 
 R.channel_state = channel_state
-REACH_STEPS = blocks.REACH_STEPS
 
 
 def use(spec: str) -> None:
@@ -57,8 +52,7 @@ def use(spec: str) -> None:
         R.make_level = MAKE_LEVEL
         return
     blocks.SINGLE_NODES, blocks.SINGLE_SEGMENTS = 0, 600_000
-    yb, ym, cb, cm, *reach = (int(v) for v in spec.split("/"))
-    blocks.REACH_STEPS = reach[0] if reach else REACH_STEPS
+    yb, ym, cb, cm = (int(v) for v in spec.split("/"))
 
     def make_level(vi, r, zoom, n_segments=0, fraction=1.0):
         chroma = getattr(_CHANNEL, "name", "Y") in ("U", "V")
@@ -70,23 +64,6 @@ def use(spec: str) -> None:
         return blocks.Level(lv.r, lv.nr, lv.nc, max(1, int((b or blocks.BLOCK) * scale)), m or lv.margin)
 
     R.make_level = make_level
-
-
-def measure(vi, img, reductions) -> dict:
-    row = {}
-    t = cpu()
-    one = vi.render()
-    row["1x s"] = cpu() - t
-    row["1x PSNR"] = metrics.psnr(img, one)
-    if img.ndim == 3:
-        row["1x UV PSNR"] = uv_psnr(img, one)
-    row["1x S2"] = metrics.ssimulacra2(img, one)
-    for f in reductions:
-        ref = downscale(img, f)
-        hh, ww = ref.shape[:2]
-        out = vi.render(crop=(0, 0, ww * f, hh * f), width=ww, height=hh)
-        row[f"1/{f} PSNR"] = metrics.psnr(ref, out)
-    return row
 
 
 def main(argv=None) -> int:
@@ -110,20 +87,9 @@ def main(argv=None) -> int:
         vi.render(crop=(0, 0, 32, 32))  # compile / load the kernels
         for spec in specs:
             use(spec)
-            rows[name, spec] = measure(vi, img, reductions)
+            rows[name, spec], _ = measure(vi, img, {"s2", "reduce"}, reductions, reduction_s2=False)
             print(name, spec, {k: round(float(v), 3) for k, v in rows[name, spec].items()}, file=sys.stderr, flush=True)
-    for k in rows[next(iter(rows))]:
-        print(f"\n### {k}\n")
-        print("| photo | " + " | ".join(specs) + " | " + " | ".join(f"{s} - first" for s in specs[1:]) + " |")
-        print("|---" * (2 * len(specs)) + "|")
-        vals = []
-        for name in photos:
-            if k not in rows[name, specs[0]]:
-                continue
-            v = [rows[name, s][k] for s in specs]
-            vals.append(v + [x - v[0] for x in v[1:]])
-            print(f"| {name} | " + " | ".join(f"{x:.3f}" for x in vals[-1]) + " |")
-        print("| **mean** | " + " | ".join(f"{x:.3f}" for x in np.nanmean(np.array(vals), axis=0)) + " |")
+    print_tables(rows, photos, specs, specs)
     return 0
 
 

@@ -57,7 +57,10 @@ def uv_psnr(ref, out) -> float:
     return 10 * np.log10(255.0 ** 2 / mse) if mse > 0 else np.nan
 
 
-def measure(vi, img, want) -> dict:
+def measure(vi, img, want, reductions=(2, 4, 8), reduction_s2=True):
+    """(row, the 1x render): the 1x render's time, PSNR (and of U, V) and, with "s2" in want,
+    SSIMULACRA2; with "reduce" in want each reduction's time and PSNR against the box
+    reduction of the original, and its SSIMULACRA2 where "s2" is wanted and reduction_s2."""
     row = {}
     t = cpu()
     one = vi.render()
@@ -68,16 +71,33 @@ def measure(vi, img, want) -> dict:
     if "s2" in want:
         row["1x S2"] = metrics.ssimulacra2(img, one)
     if "reduce" in want:
-        for f in (2, 4, 8):
+        for f in reductions:
             ref = downscale(img, f)
             hh, ww = ref.shape[:2]
             t = cpu()
             out = vi.render(crop=(0, 0, ww * f, hh * f), width=ww, height=hh)
             row[f"1/{f} s"] = cpu() - t
             row[f"1/{f} PSNR"] = metrics.psnr(ref, out)
-            if "s2" in want:
+            if "s2" in want and reduction_s2:
                 row[f"1/{f} S2"] = metrics.ssimulacra2(ref, out)
     return row, one
+
+
+def print_tables(rows, photos, candidates, labels) -> None:
+    """A markdown table per measure of rows[(photo, candidate)]: per photo each candidate's
+    value (headed by its label) and its delta to the first candidate, and the mean."""
+    for k in rows[next(iter(rows))]:
+        print(f"\n### {k}\n")
+        print("| photo | " + " | ".join(labels) + " | " + " | ".join(f"{x} - {labels[0]}" for x in labels[1:]) + " |")
+        print("|---" * (2 * len(candidates)) + "|")
+        vals = []
+        for name in photos:
+            if k not in rows[name, candidates[0]]:
+                continue
+            v = [rows[name, c][k] for c in candidates]
+            vals.append(v + [x - v[0] for x in v[1:]])
+            print(f"| {name} | " + " | ".join(f"{x:.3f}" for x in vals[-1]) + " |")
+        print("| **mean** | " + " | ".join(f"{x:.3f}" for x in np.nanmean(np.array(vals), axis=0)) + " |")
 
 
 def main(argv=None) -> int:
@@ -118,21 +138,7 @@ def main(argv=None) -> int:
                 save_crop(one, crops[name], os.path.join(a.out_dir, f"{name}-{f:g}.png"))
         if name in crops:
             save_crop(img, crops[name], os.path.join(a.out_dir, f"{name}-original.png"))
-    keys = [k for k in rows[next(iter(rows))]]
-    for k in keys:
-        print(f"\n### {k}\n")
-        print("| photo | " + " | ".join(f"{f:g}" for f in fractions) + " | " +
-              " | ".join(f"{f:g} - {fractions[0]:g}" for f in fractions[1:]) + " |")
-        print("|---" * (2 * len(fractions)) + "|")
-        vals = []
-        for name in photos:
-            if k not in rows[name, fractions[0]]:
-                continue
-            v = [rows[name, f][k] for f in fractions]
-            d = [x - v[0] for x in v[1:]]
-            vals.append(v + d)
-            print(f"| {name} | " + " | ".join(f"{x:.3f}" for x in v + d) + " |")
-        print("| **mean** | " + " | ".join(f"{x:.3f}" for x in np.nanmean(np.array(vals), axis=0)) + " |")
+    print_tables(rows, photos, fractions, [f"{f:g}" for f in fractions])
     return 0
 
 
