@@ -123,9 +123,8 @@ class SampleEdges:
         self.row0 = vp.row0 if buckets is not None else 0  # the buckets' first sample row
         if buckets is not None:  # a crop of a prepared master: its rows' edges only (band)
             return
-        x0, y0, x1, y1, self.src = cl.edges
-        self.X0, self.X1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx
-        self.Y0, self.Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+        self.X0, self.Y0, self.X1, self.Y1 = to_samples(cl.edges, vp)
+        self.src = cl.edges[4]
         lo = np.minimum(self.Y0, self.Y1) - vp.row0
         hi = np.maximum(self.Y0, self.Y1) - vp.row0
         self.buckets = Buckets(lo, hi, SAMPLE_BUCKET, max(1, -(-n_rows // SAMPLE_BUCKET)))
@@ -142,8 +141,8 @@ class SampleEdges:
             b0, b1 = self.row0 + a0, self.row0 + a0 + n - 1
             sel = self.buckets.of(b0 // self.buckets.size, b1 // self.buckets.size)
             if self.X0 is None:  # the canvas's buckets: map only the edges these rows read (the same values)
-                x0, y0, x1, y1, src = (v[sel] for v in cl.edges)
-                X0, X1, Y0, Y1 = x0 * vp.kx - vp.offx, x1 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+                X0, Y0, X1, Y1 = to_samples([v[sel] for v in cl.edges[:4]], vp)
+                src = cl.edges[4][sel]
             else:
                 X0, Y0, X1, Y1, src = self.X0[sel], self.Y0[sel], self.X1[sel], self.Y1[sel], self.src[sel]
             tband, *_ = rasterise(X0, Y0, X1, Y1, src, vp.row0 + a0, vp.col0, n, m, False)
@@ -168,13 +167,19 @@ class SampleEdges:
         return (part[:, vp.col0 - kc + 1:] + left[:, None]).astype(np.int16)
 
 
+def to_samples(edges, vp):
+    """(X0, Y0, X1, Y1): edges (x0, y0, x1, y1, ...) in source pixels mapped to the
+    viewport's global sample lattice."""
+    x0, y0, x1, y1 = edges[:4]
+    return x0 * vp.kx - vp.offx, y0 * vp.ky - vp.offy, x1 * vp.kx - vp.offx, y1 * vp.ky - vp.offy
+
+
 def canvas_buckets(cl, vp, canvas_h: float) -> Buckets:
     """A one-window level's edges by the buckets of SAMPLE_BUCKET sample rows of the whole
     canvas at this viewport's lattice (global sample rows from 0): what a preparation keeps so
     that a crop maps and rasterises only the edges of its own rows (SampleEdges.band). A
     strip given more edges than those that cross its rows has the same bands."""
-    x0, y0, x1, y1, _ = cl.edges
-    Y0, Y1 = y0 * vp.ky - vp.offy, y1 * vp.ky - vp.offy
+    _, Y0, _, Y1 = to_samples(cl.edges, vp)
     n_rows = int(np.ceil(canvas_h * vp.ky - vp.offy)) + 1
     return Buckets(np.minimum(Y0, Y1), np.maximum(Y0, Y1), SAMPLE_BUCKET, max(1, -(-n_rows // SAMPLE_BUCKET)))
 
