@@ -189,3 +189,36 @@ def test_largest_items_start_first(tmp_path):
                           depth=8, fit="pad", pad=(0, 0, 0), metrics=False)
     assert [j["stem"] for j in jobs] == ["frame_2", "frame_4", "frame_3", "frame_1"]
     assert list(items) == ["frame_1", "frame_2", "frame_3", "frame_4"]  # the manifest keeps the input order
+
+
+
+def _deaf_and_busy(marker):
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    open(marker, "w").close()
+    time.sleep(600)
+
+
+def test_terminate_ends_every_worker_even_one_deaf_to_sigterm(tmp_path):
+    """run._terminate (a broken pool, Ctrl-C) ends every worker process, with SIGKILL one
+    that ignores SIGTERM in the middle of an item, and the pool's own thread, so that the
+    batch never waits for ever."""
+    import time
+
+    from isophote.batch import run
+
+    marker = tmp_path / "running"
+    pool = run._new_pool(2, pin=False)
+    busy = pool.submit(_deaf_and_busy, str(marker))
+    t = time.monotonic()
+    while not marker.exists():
+        assert time.monotonic() - t < 120 and not busy.done()
+        time.sleep(0.05)
+    procs = list(pool._processes.values())
+    t = time.monotonic()
+    run._terminate(pool)
+    assert time.monotonic() - t < 30
+    assert procs and not any(p.is_alive() for p in procs)
+    assert not pool._executor_manager_thread or not pool._executor_manager_thread.is_alive()

@@ -363,7 +363,10 @@ def _run_pool(jobs, finished, workers, retries, pin, cleanup) -> None:
                     else:
                         _retry(job, pending, finished, retries, lost)
                 running.clear()
-                pool.shutdown(wait=True, cancel_futures=True)
+                # Not pool.shutdown(wait=True): on Python 3.11 a worker that submit() started
+                # while the pool's manager was terminating the others is never terminated, and
+                # the manager then waits for it for ever (seen: the killed-worker test hung CI).
+                _terminate(pool)
                 cleanup()  # no worker is running now
                 pool = _new_pool(workers, pin)
     except BaseException:
@@ -392,19 +395,25 @@ def _internal(e) -> dict:
 
 
 def _terminate(pool) -> None:
-    """Stop our pool now: drop what is queued and end the worker processes (SIGTERM)."""
+    """Stop our pool now: drop what is queued and end the worker processes (SIGTERM, then
+    SIGKILL for one still there after 5 s), then wait for the pool's own thread."""
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
-    for p in processes:
-        try:
-            p.terminate()
-        except (OSError, AttributeError):
-            pass
-    for p in processes:
-        try:
-            p.join(5)
-        except (OSError, AssertionError, AttributeError):
-            pass
+    for stop in ("terminate", "kill"):
+        for p in processes:
+            try:
+                if p.is_alive():
+                    getattr(p, stop)()
+            except (OSError, AttributeError, ValueError):
+                pass
+        for p in processes:
+            try:
+                p.join(5)
+            except (OSError, AssertionError, AttributeError, ValueError):
+                pass
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None:
+        manager.join(30)
 
 
 # =============================================================================================
