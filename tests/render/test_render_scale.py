@@ -318,3 +318,39 @@ def test_chroma_at_half_the_luma_nodes(vi, monkeypatch):
     assert 0 < d.mean() < 1.0 and d.max() <= 40
     for scale in (0.25, 1):
         _check_crops(vi, scale, CROPS[scale])
+
+
+def test_sharpened_block_fill_is_the_whole_windows_where_samples_read(vi, forced_blocks):
+    """A sharpened block's node fill is computed on its block, a ring and the correction's
+    reach only: on the nodes its samples read (the block and a ring of one node) it and its
+    correction equal those of the fill over the whole window."""
+    from isophote.options import RenderOptions
+    from isophote.render import channel_state, viewport
+    from isophote.render._kernels.diffuse import evaluate
+    from isophote.render._kernels.sharpen import correction
+
+    opts = RenderOptions(scale=3.0)
+    vp = viewport(vi, opts)
+    checked = 0
+    for ch in vi.channels:
+        cl, cache = channel_state(vi, ch, vp, opts)
+        lv, gain = cl.level, cache.sharpen
+        assert lv.block and max(gain) > 0.0
+        nbr, nbc = lv.blocks()
+        for bi, bj in [(0, 0), (nbr // 2, nbc // 2), (nbr - 1, nbc - 1)]:
+            nf = cl.field(bi, bj, "euclidean", True, gain)
+            i0, j0, n, m = lv.window(bi, bj)
+            whole = np.empty((n, m), np.float32)
+            evaluate(nf.F, nf.band, nf.labels, nf.dmax, nf.capv, nf.ramp, nf.band, np.arange(m) + 0.5,
+                     np.arange(n) + 0.5, ch.levels, nf.mode, False, np.empty((0, 0), np.float32), whole, True, nf.bw,
+                     np.empty((0, 0), np.float32))
+            corr, sharp = correction(whole, int(round(lv.r)), float(gain[0]), float(gain[1]))
+            B = lv.block
+            a0, a1 = max(bi * B - 1 - i0, 0), min((bi + 1) * B + 1 - i0, n)
+            c0, c1 = max(bj * B - 1 - j0, 0), min((bj + 1) * B + 1 - j0, m)
+            assert (a1 - a0) * (c1 - c0) < n * m  # the window is wider than what the samples read
+            assert np.array_equal(nf.nv[a0:a1, c0:c1], sharp[a0:a1, c0:c1])
+            assert np.array_equal(nf.corr[a0:a1, c0:c1], corr[a0:a1, c0:c1])
+            assert np.isnan(nf.nv).any()  # the nodes beyond were not filled
+            checked += 1
+    assert checked == 3 * len(vi.channels)

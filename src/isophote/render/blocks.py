@@ -185,20 +185,22 @@ class ChannelLevel:
         ramp = float(ch.cap_ramp) * r
         bw = band_widths(F, band, labels, dmax, capv, ramp) if smooth else np.zeros((0, 0, 2), np.float32)
         # the node fill where samples read it: a blocked window's samples lie in its block, and
-        # read the nodes of their cell, so the block and a ring of one node (all of it when
-        # sharpened: the correction filters it)
+        # read the nodes of their cell, so the block and a ring of one node; sharpened, the
+        # correction at those reads the fill rr nodes further (sharpen.correction), so rr more
+        # (the nodes beyond stay NaN, and so do their corrections, which no sample reads)
         a0, a1, c0, c1 = 0, n, 0, m
-        if lv.block and max(sharpen) <= 0.0:
-            B = lv.block
-            a0, a1 = max(bi * B - 1 - i0, 0), min((bi + 1) * B + 1 - i0, n)
-            c0, c1 = max(bj * B - 1 - j0, 0), min((bj + 1) * B + 1 - j0, m)
+        sharpened = max(sharpen) > 0.0
+        if lv.block:
+            B, ring = lv.block, 1 + (int(round(r)) if sharpened else 0)
+            a0, a1 = max(bi * B - ring - i0, 0), min((bi + 1) * B + ring - i0, n)
+            c0, c1 = max(bj * B - ring - j0, 0), min((bj + 1) * B + ring - j0, m)
         nv = np.full((n, m), np.nan, np.float32)
         core = np.empty((a1 - a0, c1 - c0), np.float32)
         evaluate(F, band, labels, dmax, capv, ramp, np.ascontiguousarray(band[a0:a1, c0:c1]), np.arange(c0, c1) + 0.5,
                  np.arange(a0, a1) + 0.5, ch.levels, mode, False, np.empty((0, 0), np.float32), core, smooth, bw,
                  np.empty((0, 0), np.float32))
         nv[a0:a1, c0:c1] = core
-        if max(sharpen) > 0.0:
+        if sharpened:
             corr, nv = correction(nv, int(round(r)), float(sharpen[0]), float(sharpen[1]))
         else:
             corr = np.zeros((0, 0), np.float32)
