@@ -191,7 +191,6 @@ def test_largest_items_start_first(tmp_path):
     assert list(items) == ["frame_1", "frame_2", "frame_3", "frame_4"]  # the manifest keeps the input order
 
 
-
 def _deaf_and_busy(marker):
     import signal
     import time

@@ -189,9 +189,9 @@ class ChannelLevel:
         # correction at those reads the fill rr nodes further (sharpen.correction), so rr more
         # (the nodes beyond stay NaN, and so do their corrections, which no sample reads)
         a0, a1, c0, c1 = 0, n, 0, m
-        sharpened = max(sharpen) > 0.0
+        sharpened, rr = max(sharpen) > 0.0, int(round(r))
         if lv.block:
-            B, ring = lv.block, 1 + (int(round(r)) if sharpened else 0)
+            B, ring = lv.block, 1 + (rr if sharpened else 0)
             a0, a1 = max(bi * B - ring - i0, 0), min((bi + 1) * B + ring - i0, n)
             c0, c1 = max(bj * B - ring - j0, 0), min((bj + 1) * B + ring - j0, m)
         nv = np.full((n, m), np.nan, np.float32)
@@ -201,7 +201,7 @@ class ChannelLevel:
                  np.empty((0, 0), np.float32))
         nv[a0:a1, c0:c1] = core
         if sharpened:
-            corr, nv = correction(nv, int(round(r)), float(sharpen[0]), float(sharpen[1]))
+            corr, nv = correction(nv, rr, float(sharpen[0]), float(sharpen[1]))
         else:
             corr = np.zeros((0, 0), np.float32)
         nf = NodeField(F, band, ch.levels, r, mode, None, ch.base_band, labels, dmax, capv, nv, smooth, bw,
