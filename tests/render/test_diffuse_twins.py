@@ -159,3 +159,65 @@ def test_evaluate_flat_matches_its_twin_and_is_the_band_middle():
     inner = (ch["band"] >= 1) & (ch["band"] < len(lv))
     b = ch["band"][inner].astype(int)
     assert np.allclose(out[inner], 0.5 * (lv[b - 1] + lv[b]))
+
+
+def _coarse_fields(ch, k, mode):
+    """The channel's fields rasterised at 1/k of its nodes a side (its edges scaled), with
+    its own bands' base and levels: what blocks.ChannelLevel.coarse_field gives a level."""
+    nr, nc = ch["band"].shape
+    nrc, ncc = -(-nr // k), -(-nc // k)
+    x0, y0, x1, y1 = (e / k for e in ch["edges"])
+    band, *h = rasterise(x0, y0, x1, y1, ch["src"], 0, 0, nrc, ncc, True)
+    _, *v = rasterise(y0, x0, y1, x1, ch["src"], 0, 0, ncc, nrc, True, True)
+    band = (band + ch["base"]).astype(np.int16)
+    Fc = diffuse.seed(band, tuple(h), tuple(v), ch["levels"], mode)
+    diffuse.propagate(Fc, band, diffuse.offsets(mode), mode, 1)
+    return Fc
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("mode", MODES, ids=MODE_IDS)
+def test_offer_coarse_matches_its_twin_and_only_shortens(seed, mode):
+    """A window (rows i0.., columns j0.. of a level) offered a coarse field's sources on its
+    cut edges: kernel and twin agree exactly; only nodes on cut edges change, each to a
+    nearer source of the same side, at the level that side has in the node's band."""
+    ch = random_channel(300 + seed)
+    rng = ch["rng"]
+    k = int(rng.choice([2, 4]))
+    Fc = _coarse_fields(ch, k, mode)
+    i0, j0 = int(rng.integers(0, 4)), int(rng.integers(0, 4))
+    band = np.ascontiguousarray(ch["band"][i0:, j0:])
+    # the level's seeded fields, cut to the window (node-major storage, as seed makes them)
+    full = diffuse.seed(ch["band"], ch["h"], ch["v"], ch["levels"], mode).transpose((2, 3, 0, 1))
+    F = np.ascontiguousarray(full[i0:, j0:]).transpose((2, 3, 0, 1))
+    before = F.copy()
+    cuts = np.array([1, 1, 1, 1]) if seed % 2 else rng.integers(0, 2, 4)
+    ref = diffuse_ref.offer_coarse(F, band, ch["levels"], Fc, k, i0, j0, cuts, mode)
+    diffuse.offer_coarse(F, band, ch["levels"], Fc, k, i0, j0, cuts, mode)
+    assert_same(np.ascontiguousarray(F), np.ascontiguousarray(ref))
+    changed = (F[:, D] != before[:, D])
+    assert (F[:, D] <= before[:, D]).all()
+    edge = np.zeros(band.shape, bool)
+    for c, sl in zip(cuts, ((0, slice(None)), (-1, slice(None)), (slice(None), 0), (slice(None), -1))):
+        if c:
+            edge[sl] = True
+    assert not (changed & ~edge).any()
+    nl = len(ch["levels"])
+    for s in range(2):
+        i, j = np.nonzero(changed[s])
+        lv = band[i, j].astype(int) - 1 + s
+        assert ((lv >= 0) & (lv < nl)).all() and np.array_equal(F[s, 3, i, j], ch["levels"][lv].astype(np.float32))
+    # fields with no source yet take every coarse source offered them: on the cut edges,
+    # exactly the nodes whose coarse node has one at the level of that side of their band
+    empty = diffuse_ref.empty_fields(*band.shape)
+    diffuse.offer_coarse(empty, band, ch["levels"], Fc, k, i0, j0, cuts, mode)
+    ii, jj = np.indices(band.shape)
+    ci = np.minimum((i0 + ii + 0.5) // k, Fc.shape[2] - 1).astype(int)
+    cj = np.minimum((j0 + jj + 0.5) // k, Fc.shape[3] - 1).astype(int)
+    for s in range(2):
+        lv = band.astype(int) - 1 + s
+        fit = (lv >= 0) & (lv < nl)
+        want = np.where(fit, ch["levels"][np.clip(lv, 0, max(nl - 1, 0))] if nl else 0, np.nan).astype(np.float32)
+        expect = edge & fit & np.isfinite(Fc[s, D, ci, cj]) & (Fc[s, 3, ci, cj] == want)
+        assert np.array_equal(np.isfinite(empty[s, D]), expect)
+        assert np.allclose(empty[s, 0][expect], Fc[s, 0, ci, cj][expect] * k - j0)

@@ -3,6 +3,7 @@
 The estimate adds the output array, each channel's level (a one-window level: every node's
 fields at WINDOW_PEAK_BYTES while computed; a blocked level: the canvas-wide regions kept at
 4 bytes a node, the pass that makes them at REGION_PASS_BYTES a node one channel at a time,
+its coarse field at COARSE_BYTES a coarse node (WINDOW_PEAK_BYTES while it is made),
 and the windows in flight, plus one row of kept blocks where output rows straddle block
 rows), and the strips' planes. The budget is MEMORY_PER_PIXEL bytes for each pixel the
 render may produce (max_pixels, at least the default): 4 GB by default, which every canvas
@@ -16,6 +17,7 @@ from ..limits import MAX_PIXELS
 from .blocks import WINDOW_BYTES, WINDOW_PEAK_BYTES
 
 MEMORY_PER_PIXEL = 40
+COARSE_BYTES = 48  # a node of a blocked level's coarse field (blocks.ChannelLevel.coarse_field)
 REGION_PASS_BYTES = 16  # band 2, winding deltas 4 (transient), union-find parents 8, labels 4 (kept, counted apart)
 
 
@@ -29,7 +31,9 @@ def render_bytes(vi, vp, levels, depth, prepared: bool = False) -> int:
             total += lv.nodes * WINDOW_PEAK_BYTES
             continue
         total += lv.nodes * 4
-        pass_peak = max(pass_peak, lv.nodes * REGION_PASS_BYTES)
+        coarse = -(-lv.nr // lv.coarse) * -(-lv.nc // lv.coarse)  # its coarse field: kept, and while made
+        total += coarse * COARSE_BYTES
+        pass_peak = max(pass_peak, lv.nodes * REGION_PASS_BYTES, coarse * WINDOW_PEAK_BYTES)
         w = (lv.block + 2 * lv.margin) ** 2
         total += w * WINDOW_PEAK_BYTES
         if vp.s > 1 or prepared:

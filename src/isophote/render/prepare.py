@@ -11,7 +11,10 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
   and a labelling of the level: about a fifth of a render's geometry at that zoom;
 - for a blocked level that crops read, the windings of every sample row left of each
   128-column bin (4 bytes a row and bin: 0.5 MB a channel at 1x for 16 MP, 33 MB at 8:1;
-  one more pass over the segments), so that a tile rasterises its own columns only;
+  one more pass over the segments), so that a tile rasterises its own columns only, and
+  its coarse field (blocks.ChannelLevel.coarse_field: at most COARSE_NODES = 500,000 nodes,
+  48 bytes each, 24 MB a channel and level; the fields of a one-window level at a node every
+  k, about a tenth of the level's render time), which every window's cut edges read;
 - for a one-window level, its edges by buckets of the canvas's sample rows
   (strips.canvas_buckets: 8 bytes an edge and bucket it reaches), so that a crop maps and
   rasterises the edges of its own rows only;
@@ -65,6 +68,7 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
     from .. import threads
     from . import _plane_key, channel_state, make_plane, plane_lattice, prepared_buckets, prepared_windings, viewport
     from ..options import RenderOptions
+    from .distance import MODES
 
     prep = _PREPARED.get(vi)
     if prep is None:
@@ -76,6 +80,7 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
             cl, _ = channel_state(vi, ch, vp, opts, prep)
             if cl.level.block:  # what its crops (tiles) read
                 prepared_windings(vi, ch, cl, vp, prep)
+                cl.coarse_field(MODES[opts.distance])  # what its windows' cut edges are offered
             else:
                 prepared_buckets(vi, ch, cl, vp, prep)
         if planes and plane_lattice(vi, vp) is not None:  # a reduction: its samples, once

@@ -120,6 +120,13 @@ def _offer_crossing(F, band, levels, i, j, sx, sy, tx, ty, going_up, mode):
         if b < 1:
             return
         s, v = 0, levels[b - 1]
+    _offer(F, s, v, i, j, sx, sy, tx, ty, mode)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _offer(F, s, v, i, j, sx, sy, tx, ty, mode):
+    """Node (i, j) takes the source (sx, sy) along (tx, ty) of value v as its side s's where
+    it is nearer than the one it holds."""
     d = seg_dist(j + 0.5, i + 0.5, sx, sy, tx, ty, mode)
     if d < F[s, D, i, j]:
         F[s, SX, i, j] = sx
@@ -170,6 +177,42 @@ def seed(band, H, Vc, levels, mode):
                         tx, ty = _unit(1.0, vls[j, i])
                         _offer_crossing(F, band, levels, i, j, xc, vlx[j, i], tx, ty, vld[j, i] > 0, mode)
     return F
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def offer_coarse(F, band, levels, Fc, k, i0, j0, cuts, mode):
+    """Offer each node on the window's cut edges (cuts: top, bottom, left, right, 1 where the
+    window's edge lies inside the level) the sources a coarse field of the whole level found
+    for the coarse node it lies in (those of the 8 round it as well gain nothing measurable on
+    Kite): Fc (2, NF, nrc, ncc) at 1/k of the window's nodes a side,
+    the window's first node at level node (i0, j0). A side's coarse source is offered where
+    its level is that side's of the node's band; it replaces the node's own where nearer.
+    The propagation then carries the sources from beyond the window inwards."""
+    nr, nc = band.shape
+    nrc, ncc = Fc.shape[2], Fc.shape[3]
+    nl = levels.shape[0]
+    for e in range(4):
+        if cuts[e] == 0:
+            continue
+        count = nc if e < 2 else nr
+        for t in range(count):
+            if e == 0:
+                i, j = 0, t
+            elif e == 1:
+                i, j = nr - 1, t
+            elif e == 2:
+                i, j = t, 0
+            else:
+                i, j = t, nc - 1
+            b = band[i, j]
+            ci = min(int((i0 + i + 0.5) / k), nrc - 1)
+            cj = min(int((j0 + j + 0.5) / k), ncc - 1)
+            for s in range(2):
+                lv = b - 1 if s == 0 else b
+                if lv < 0 or lv >= nl or Fc[s, D, ci, cj] == np.inf or Fc[s, V, ci, cj] != np.float32(levels[lv]):
+                    continue
+                _offer(F, s, levels[lv], i, j, Fc[s, SX, ci, cj] * k - j0, Fc[s, SY, ci, cj] * k - i0,
+                       Fc[s, TX, ci, cj], Fc[s, TY, ci, cj], mode)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -81,6 +81,37 @@ def seg_dist(px, py, sx, sy, tx, ty, mode):
     return metric(rx, ry, mode)
 
 
+def offer_coarse(F, band, levels, Fc, k, i0, j0, cuts, mode):
+    """Twin of :func:`diffuse.offer_coarse`, on a copy of F (returned): the cut edges' nodes
+    as arrays, the edges in the kernel's order (a corner node is offered twice, as there)."""
+    F = F.copy()
+    nr, nc = band.shape
+    nrc, ncc = Fc.shape[2:]
+    nl = levels.shape[0]
+    edges = [(np.zeros(nc, int), np.arange(nc)), (np.full(nc, nr - 1), np.arange(nc)),
+             (np.arange(nr), np.zeros(nr, int)), (np.arange(nr), np.full(nr, nc - 1))]
+    for e, (I, J) in enumerate(edges):
+        if not cuts[e]:
+            continue
+        b = band[I, J].astype(np.int64)
+        ci = np.minimum(((i0 + I + 0.5) / k).astype(np.int64), nrc - 1)
+        cj = np.minimum(((j0 + J + 0.5) / k).astype(np.int64), ncc - 1)
+        for s in range(2):
+            lv = b - 1 if s == 0 else b
+            ok = (lv >= 0) & (lv < nl)
+            lvc = np.clip(lv, 0, nl - 1)
+            ok &= (Fc[s, D, ci, cj] != np.inf) & (Fc[s, V, ci, cj] == levels[lvc].astype(np.float32))
+            # float64 arithmetic on the float32 fields, as the kernel's; stored as float32
+            sx = Fc[s, SX, ci, cj].astype(np.float64) * k - j0
+            sy = Fc[s, SY, ci, cj].astype(np.float64) * k - i0
+            tx, ty = Fc[s, TX, ci, cj].astype(np.float64), Fc[s, TY, ci, cj].astype(np.float64)
+            d = seg_dist(J + 0.5, I + 0.5, sx, sy, tx, ty, mode)
+            better = ok & (d < F[s, D, I, J])
+            for f, val in ((SX, sx), (SY, sy), (TX, tx), (TY, ty), (D, d), (V, levels[lvc])):
+                F[s, f, I[better], J[better]] = np.asarray(val)[better] if np.ndim(val) else val
+    return F
+
+
 def _unit(a, b):
     """(a, b) / |(a, b)| in float64, each product in its operand's own type (as numba does
     with a float32 slope and a float64 one)."""
