@@ -227,8 +227,8 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
             else segment_starts(ch.offsets)[0]
         if level.block:
             with _REGIONS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
-                return ChannelLevel(vi, ch, first, tol, level, rows)
-        return ChannelLevel(vi, ch, first, tol, level, rows)
+                return ChannelLevel(vi, ch, first, tol, level, rows, prep)
+        return ChannelLevel(vi, ch, first, tol, level, rows, prep)
 
     if prep is None:
         cl = make_level_state()

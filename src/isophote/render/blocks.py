@@ -49,6 +49,7 @@ SINGLE_NODES = 2_500_000  # a level this small is one window (every corpus photo
 BLOCK = 256  # nodes a side of a block at or below 1x; smaller above (block_size)
 MARGIN = 32  # nodes of window around a block
 COARSE_NODES = 500_000  # at most this many nodes in a blocked level's coarse field
+COARSE_TOL = 0.0125  # coarse nodes: the coarse field's flattening tolerance (0.05 px at 1/4)
 WINDOW_BYTES = 72  # bytes a node of a kept window (fields 48, band, labels, fill, widths)
 WINDOW_PEAK_BYTES = 120  # while it is computed (crossings), as distance.NODE_BYTES
 
@@ -124,8 +125,8 @@ class ChannelLevel:
     segment's edges do not depend on which others are flattened with it, nor a window's
     bands and crossings on the edges that miss it."""
 
-    def __init__(self, vi, ch, first, tol: float, level: Level, sample_rows=(0.0, 0.0)):
-        self.vi, self.ch, self.level, self.tol = vi, ch, level, tol
+    def __init__(self, vi, ch, first, tol: float, level: Level, sample_rows=(0.0, 0.0), shared=None):
+        self.vi, self.ch, self.level, self.tol, self.shared = vi, ch, level, tol, shared
         self.glabels = self.gcapv = None
         self._coarse, self._coarse_lock = {}, threading.Lock()
         self.edges = None
@@ -200,16 +201,25 @@ class ChannelLevel:
 
     def coarse_field(self, mode: int) -> np.ndarray:
         """The fields (2, NF, nrc, ncc) of the whole level at a node every Level.coarse nodes
-        (one window, computed once a metric): what a blocked window's cut edges are offered
-        (diffuse.offer_coarse), so that its nodes find the sources beyond it."""
+        (one window at 1/k of the level's nodes a side, flattened at COARSE_TOL of its node),
+        what a blocked window's cut edges are offered (diffuse.offer_coarse), so that its
+        nodes find the sources beyond it. Made once a metric; the levels of a channel with
+        the same coarse grid (a preparation's zooms usually: 1x, 2x, 4x, ... share r / k)
+        share it through the preparation when there is one (``shared``: Preparation)."""
+        lv, k = self.level, self.level.coarse
+        coarse = Level(lv.r / k, -(-lv.nr // k), -(-lv.nc // k), 0)
+
+        def make():
+            cl = ChannelLevel(self.vi, self.ch, self.index.first, COARSE_TOL / coarse.r, coarse)
+            return cl._distances(0, 0, coarse.nr, coarse.nc, mode)[1]
+
+        key = (self.ch.name, coarse, mode)
+        if self.shared is not None:
+            return self.shared.get(self.shared.coarse, key, make)
         with self._coarse_lock:
-            F = self._coarse.get(mode)
-            if F is None:
-                lv, k = self.level, self.level.coarse
-                coarse = Level(lv.r / k, -(-lv.nr // k), -(-lv.nc // k), 0)
-                cl = ChannelLevel(self.vi, self.ch, self.index.first, self.tol, coarse)
-                F = self._coarse[mode] = cl._distances(0, 0, coarse.nr, coarse.nc, mode)[1]
-            return F
+            if key not in self._coarse:
+                self._coarse[key] = make()
+            return self._coarse[key]
 
     def field(self, bi: int, bj: int, distance: str, smooth: bool, sharpen) -> NodeField:
         """The fields of block (bi, bj) on its window (the whole level when not blocked), in

@@ -13,8 +13,9 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
   128-column bin (4 bytes a row and bin: 0.5 MB a channel at 1x for 16 MP, 33 MB at 8:1;
   one more pass over the segments), so that a tile rasterises its own columns only, and
   its coarse field (blocks.ChannelLevel.coarse_field: at most COARSE_NODES = 500,000 nodes,
-  48 bytes each, 24 MB a channel and level; the fields of a one-window level at a node every
-  k, about a tenth of the level's render time), which every window's cut edges read;
+  48 bytes each; the fields of a one-window level at a node every k; one a channel for the
+  levels that share its grid, as 1x, 2x, 4x and 8x do: 12 MB a channel for Kite's 2560 x
+  1600), which every window's cut edges read;
 - for a one-window level, its edges by buckets of the canvas's sample rows
   (strips.canvas_buckets: 8 bytes an edge and bucket it reaches), so that a crop maps and
   rasterises the edges of its own rows only;
@@ -44,7 +45,7 @@ FIELD_BYTES = 384 * 2**20  # block fields kept by a preparation, all channels an
 class Preparation:
     def __init__(self, field_bytes: int = FIELD_BYTES):
         self.field_bytes = field_bytes
-        self.edges, self.levels, self.caches, self.windings, self.planes = {}, {}, {}, {}, {}
+        self.edges, self.levels, self.caches, self.windings, self.planes, self.coarse = {}, {}, {}, {}, {}, {}
         self.lock = threading.Lock()
 
     def get(self, table: dict, key, make):
