@@ -20,9 +20,10 @@ one within its window, or none, where the whole-level sweep found one. Each bloc
 has a coarse field, the fields of the whole level at a node every ``Level.coarse`` nodes (at
 most COARSE_NODES), computed once; a window's nodes on its cut edges are offered the sources
 of the coarse nodes around them before the propagation (diffuse.offer_coarse), which carries
-them inwards. On Kite (2560 x 1600) at 1x, against the one-window render: pixels more than
-0.5 off 7.6 % -> 2.3 % (the one-window render's own single sweep pair is 3.9 % off its
-converged fields), more than 2 off 1.1 % -> 0.17 %, for 6 % more time.
+them inwards. On Kite (2560 x 1600) at 1x, against the one-window render, at a margin of 32:
+values more than 0.5 off 7.6 % -> 2.3 % (the one-window render's own single sweep pair is
+3.9 % off its converged fields), more than 2 off 1.1 % -> 0.17 %, for the same time
+(benchmarks/results/block_sources.md).
 One thing is taken within the window instead of the whole region: a cap's d_max, its
 largest distance from the contour: it matters only for caps narrower than the cap ramp (2
 source pixels by default), which fit in a window unless they are long and thin and cross a
@@ -47,7 +48,10 @@ from .segment_index import SegmentIndex
 
 SINGLE_NODES = 2_500_000  # a level this small is one window (every corpus photograph up to 3x)
 BLOCK = 256  # nodes a side of a block at or below 1x; smaller above (block_size)
-MARGIN = 32  # nodes of window around a block
+# nodes of window around a block: with the coarse field's offers 16 is as close to the
+# one-window render as 32 on the values more than 2 off, and 9-19 % cheaper a cold tile
+# (measured: benchmarks/results/block_sources.md#margin)
+MARGIN = 16
 COARSE_NODES = 500_000  # at most this many nodes in a blocked level's coarse field
 COARSE_TOL = 0.0125  # coarse nodes: the coarse field's flattening tolerance (0.05 px at 1/4)
 WINDOW_BYTES = 72  # bytes a node of a kept window (fields 48, band, labels, fill, widths)
