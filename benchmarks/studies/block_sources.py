@@ -11,7 +11,7 @@ one-window render (any of R, G, B), each render's PSNR against the original and 
 processor time. ``--force``: cut every level into blocks (blocks.SINGLE_NODES = 0), as the
 1280 x 800 photos' levels are not otherwise; ``--scale``: the render's scale.
 
-    python benchmarks/studies/block_sources.py [--wide corpus-wide] [--masters A.isoph,B.isoph]
+    python benchmarks/studies/block_sources.py [--wide corpus-wide] [--masters A.isoph[=A.jpg],...]
         [--image PHOTO --region x,y,w,h] [--cache /tmp/block_sources] [--force] [--scale 1]
         [--margin 32]
 
@@ -88,8 +88,15 @@ def main(argv=None) -> int:
         x, y, w, h = (int(v) for v in args.region.split(",")) if args.region else (0, 0, img.shape[1], img.shape[0])
         img = np.ascontiguousarray(img[y:y + h, x:x + w])
         items.append((f"{os.path.splitext(os.path.basename(args.image))[0]} [{args.region}]", isophote.encode(img), img))
-    for p in filter(None, args.masters.split(",")):
-        items.append((os.path.splitext(os.path.basename(p))[0], isophote.load(p), None))
+    for spec in filter(None, args.masters.split(",")):
+        p, _, original = spec.partition("=")  # MASTER.isoph[=ORIGINAL]: PSNR against the original
+        img = None
+        if original:
+            from PIL import Image
+
+            with Image.open(original) as im:
+                img = np.asarray(im.convert("RGB"))
+        items.append((os.path.splitext(os.path.basename(p))[0], isophote.load(p), img))
     print(f"scale {args.scale:g}, {'every level blocked' if FORCE else 'levels blocked over 2.5 M nodes'}, "
           f"margin {blocks.MARGIN}\n")
     print("| photo | > 0.5 off without | with | > 2 off without | with | PSNR one-window | without | with "
