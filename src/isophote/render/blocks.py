@@ -24,10 +24,13 @@ them inwards. On Kite (2560 x 1600) at 1x, against the one-window render, at a m
 values more than 0.5 off 7.6 % -> 2.3 % (the one-window render's own single sweep pair is
 3.9 % off its converged fields), more than 2 off 1.1 % -> 0.17 %, for the same time
 (benchmarks/results/block_sources.md).
-One thing is taken within the window instead of the whole region: a cap's d_max, its
-largest distance from the contour: it matters only for caps narrower than the cap ramp (2
-source pixels by default), which fit in a window unless they are long and thin and cross a
-block border; domes (an infinite ramp) use it everywhere.
+A cap's d_max, its largest distance from the contour, is the window's own for a region
+that lies wholly in the window, and the larger of that and the canvas region's as the
+coarse field sees it (coarse_dmax) for one that leaves the window: it matters for caps
+narrower than the cap ramp (2 source pixels by default) and for domes (an equalised
+master's caps: an infinite ramp), which use it everywhere (a dome of radius 36 over 32-node
+blocks: max 16 -> 4 levels off the one-window render; the coarse estimate is a node or so
+short of the true largest distance).
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import threads
-from ._kernels.diffuse import (NF, band_widths, evaluate, label_nodes, offer_coarse, offsets, propagate, region_caps,
+from ._kernels.diffuse import (D, NF, V, band_widths, evaluate, label_nodes, offer_coarse, offsets, propagate, region_caps,
                                seed)
 from ._kernels.raster import rasterise, rasterise_chains, rasterise_window
 from ._kernels.regions import cap_values, local_cap_values
@@ -225,6 +228,36 @@ class ChannelLevel:
                 self._coarse[key] = make()
             return self._coarse[key]
 
+    def coarse_dmax(self, mode: int) -> np.ndarray:
+        """(regions, 2): each canvas region's largest distance from its lower and upper
+        sources as the coarse field sees it (its nodes' distances, in the level's node
+        units, by the canvas region of the level node at each coarse node's centre)."""
+        with self._coarse_lock:
+            out = self._coarse.get(("dmax", mode))
+        if out is None:
+            Fc, k = self.coarse_field(mode), self.level.coarse
+            nr, nc = self.glabels.shape
+            ii = np.minimum(np.arange(Fc.shape[2]) * k + k // 2, nr - 1)
+            jj = np.minimum(np.arange(Fc.shape[3]) * k + k // 2, nc - 1)
+            g = self.glabels[np.ix_(ii, jj)]
+            b = self.gband[np.ix_(ii, jj)].astype(np.int64)
+            lv = self.ch.levels.astype(np.float32)
+            nl = len(lv)
+            out = np.zeros((len(self.gcapv), 2))
+            for s in range(2):
+                d = Fc[s, D].astype(np.float64) * k
+                # a coarse node's source counts for the level node's region where it is of the
+                # level that side has in the node's band (else the coarse node lies in another)
+                want = b - 1 + s
+                ok = np.isfinite(d) & (want >= 0) & (want < nl)
+                ok[ok] &= Fc[s, V][ok] == lv[want[ok]]
+                side = np.zeros(len(self.gcapv))
+                np.maximum.at(side, g[ok], d[ok])
+                out[:, s] = side
+            with self._coarse_lock:
+                self._coarse[("dmax", mode)] = out
+        return out
+
     def field(self, bi: int, bj: int, distance: str, smooth: bool, sharpen) -> NodeField:
         """The fields of block (bi, bj) on its window (the whole level when not blocked), in
         window node coordinates; NodeField.origin gives the window's first node."""
@@ -237,7 +270,20 @@ class ChannelLevel:
         if lv.block:
             none = np.zeros(0)
             dmax, _ = region_caps(F, band, labels, nreg, none, none, np.zeros(0, np.int64), none)
-            capv = local_cap_values(labels, nreg, self.glabels[i0:i0 + n, j0:j0 + m], self.gcapv)
+            gl = self.glabels[i0:i0 + n, j0:j0 + m]
+            capv = local_cap_values(labels, nreg, gl, self.gcapv)
+            # a region that leaves the window: its d_max is at least the canvas region's as
+            # the coarse field sees it (coarse_dmax); one within the window keeps its own
+            cuts = (i0 > 0, i0 + n < lv.nr, j0 > 0, j0 + m < lv.nc)
+            if any(cuts):
+                leaves = np.zeros(nreg, bool)
+                for cut, edge in zip(cuts, (labels[0], labels[-1], labels[:, 0], labels[:, -1])):
+                    if cut:
+                        leaves[edge] = True
+                gd = self.coarse_dmax(mode)
+                for s in range(2):
+                    wide = local_cap_values(labels, nreg, gl, np.ascontiguousarray(gd[:, s]))
+                    dmax[:, s] = np.where(leaves, np.maximum(dmax[:, s], wide), dmax[:, s])
         else:
             dmax, capv = region_caps(F, band, labels, nreg, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
                                      ch.cap_band.astype(np.int64), ch.cap_value)
