@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from isophote.render._kernels import diffuse, diffuse_ref
-from isophote.render._kernels.diffuse import D, MODE_EUCLIDEAN, MODE_GEODESIC, MODE_MANHATTAN
+from isophote.render._kernels.diffuse import D, MODE_EUCLIDEAN, MODE_GEODESIC, MODE_MANHATTAN, SX, V
 from isophote.render._kernels.raster import rasterise
 from isophote.render._kernels.sharpen import correction
 
@@ -206,7 +206,7 @@ def test_offer_coarse_matches_its_twin_and_only_shortens(seed, mode):
     for s in range(2):
         i, j = np.nonzero(changed[s])
         lv = band[i, j].astype(int) - 1 + s
-        assert ((lv >= 0) & (lv < nl)).all() and np.array_equal(F[s, 3, i, j], ch["levels"][lv].astype(np.float32))
+        assert ((lv >= 0) & (lv < nl)).all() and np.array_equal(F[s, V, i, j], ch["levels"][lv].astype(np.float32))
     # fields with no source yet take every coarse source offered them: on the cut edges,
     # exactly the nodes whose coarse node has one at the level of that side of their band
     empty = diffuse_ref.empty_fields(*band.shape)
@@ -218,6 +218,6 @@ def test_offer_coarse_matches_its_twin_and_only_shortens(seed, mode):
         lv = band.astype(int) - 1 + s
         fit = (lv >= 0) & (lv < nl)
         want = np.where(fit, ch["levels"][np.clip(lv, 0, max(nl - 1, 0))] if nl else 0, np.nan).astype(np.float32)
-        expect = edge & fit & np.isfinite(Fc[s, D, ci, cj]) & (Fc[s, 3, ci, cj] == want)
+        expect = edge & fit & np.isfinite(Fc[s, D, ci, cj]) & (Fc[s, V, ci, cj] == want)
         assert np.array_equal(np.isfinite(empty[s, D]), expect)
-        assert np.allclose(empty[s, 0][expect], Fc[s, 0, ci, cj][expect] * k - j0)
+        assert np.allclose(empty[s, SX][expect], Fc[s, SX, ci, cj][expect] * k - j0)

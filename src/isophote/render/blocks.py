@@ -93,6 +93,16 @@ class Level:
             k *= 2
         return k
 
+    def coarse_level(self) -> "Level":
+        """The one-window level of a blocked level's coarse field (r / k nodes a source pixel)."""
+        k = self.coarse
+        return Level(self.r / k, -(-self.nr // k), -(-self.nc // k), 0)
+
+    def cuts(self, i0: int, j0: int, n: int, m: int) -> tuple[bool, bool, bool, bool]:
+        """Which edges of the window (i0, j0, n, m) lie inside the level: top, bottom, left,
+        right."""
+        return i0 > 0, i0 + n < self.nr, j0 > 0, j0 + m < self.nc
+
     def blocks(self) -> tuple[int, int]:
         if not self.block:
             return 1, 1
@@ -200,7 +210,7 @@ class ChannelLevel:
         F = seed(band, tuple(h), tuple(v), ch.levels, mode)
         del h, v
         if lv.block:
-            cuts = np.array([i0 > 0, i0 + n < lv.nr, j0 > 0, j0 + m < lv.nc], np.int64)
+            cuts = np.array(lv.cuts(i0, j0, n, m), np.int64)
             if cuts.any():
                 offer_coarse(F, band, ch.levels, self.coarse_field(mode), lv.coarse, i0, j0, cuts, mode)
         propagate(F, band, offsets(mode), mode, MAX_SWEEPS)
@@ -213,8 +223,7 @@ class ChannelLevel:
         nodes find the sources beyond it. Made once a metric; the levels of a channel with
         the same coarse grid (a preparation's zooms usually: 1x, 2x, 4x, ... share r / k)
         share it through the preparation when there is one (``shared``: Preparation)."""
-        lv, k = self.level, self.level.coarse
-        coarse = Level(lv.r / k, -(-lv.nr // k), -(-lv.nc // k), 0)
+        coarse = self.level.coarse_level()
 
         def make():
             cl = ChannelLevel(self.vi, self.ch, self.index.first, COARSE_TOL / coarse.r, coarse)
@@ -274,7 +283,7 @@ class ChannelLevel:
             capv = local_cap_values(labels, nreg, gl, self.gcapv)
             # a region that leaves the window: its d_max is at least the canvas region's as
             # the coarse field sees it (coarse_dmax); one within the window keeps its own
-            cuts = (i0 > 0, i0 + n < lv.nr, j0 > 0, j0 + m < lv.nc)
+            cuts = lv.cuts(i0, j0, n, m)
             if any(cuts):
                 leaves = np.zeros(nreg, bool)
                 for cut, edge in zip(cuts, (labels[0], labels[-1], labels[:, 0], labels[:, -1])):

@@ -31,7 +31,7 @@ def render_bytes(vi, vp, levels, depth, prepared: bool = False) -> int:
             total += lv.nodes * WINDOW_PEAK_BYTES
             continue
         total += lv.nodes * 4
-        coarse = -(-lv.nr // lv.coarse) * -(-lv.nc // lv.coarse)  # its coarse field: kept, and while made
+        coarse = lv.coarse_level().nodes  # its coarse field: kept, and while made
         total += coarse * COARSE_BYTES
         pass_peak = max(pass_peak, lv.nodes * REGION_PASS_BYTES, coarse * WINDOW_PEAK_BYTES)
         w = (lv.block + 2 * lv.margin) ** 2

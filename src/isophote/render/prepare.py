@@ -81,7 +81,7 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
             cl, _ = channel_state(vi, ch, vp, opts, prep)
             if cl.level.block:  # what its crops (tiles) read
                 prepared_windings(vi, ch, cl, vp, prep)
-                cl.coarse_field(MODES[opts.distance])  # what its windows' cut edges are offered
+                cl.coarse_dmax(MODES[opts.distance])  # its coarse field (made with it) and regions' d_max
             else:
                 prepared_buckets(vi, ch, cl, vp, prep)
         if planes and plane_lattice(vi, vp) is not None:  # a reduction: its samples, once
