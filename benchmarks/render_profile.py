@@ -61,7 +61,7 @@ def main(argv=None) -> int:
         return run
 
     for name in ("seed", "propagate", "label_nodes", "region_caps", "band_widths", "rasterise_window",
-                 "local_cap_values"):
+                 "local_cap_values_runs"):
         setattr(B, name, timed(getattr(B, name), name))
     B.evaluate = timed(B.evaluate, lambda a: "evaluate:samples" if getattr(where, "samples", False)
                        else "evaluate:nodes")

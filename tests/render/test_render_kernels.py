@@ -265,3 +265,28 @@ def test_sharpen_correction_matches_its_twin(r, gx, gy, shape):
     corr, sharp = correction(nv, r, gx, gy)
     corr_ref, sharp_ref = correction_ref(nv, r, gx, gy)
     assert np.allclose(corr, corr_ref, atol=1e-4) and np.allclose(sharp, sharp_ref, atol=1e-4)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_label_runs_give_the_dense_labels_caps(seed):
+    """A blocked level keeps its canvas labels as runs along the rows (regions.row_runs): the
+    cap values a window reads through them are those of the dense labels, at any window."""
+    from isophote.render._kernels.regions import local_cap_values_runs, row_runs
+
+    rng = np.random.default_rng(seed)
+    band = rng.integers(0, 3, (37, 53)).astype(np.int16)
+    band[5:20, 10:40] = 7  # a large region beside the noise: long runs and single nodes
+    labels, m = label_nodes(band)
+    row_start, col, lab = row_runs(labels)
+    assert row_start[-1] == len(col) and np.all(col[row_start[:-1]] == 0)
+    dense = np.concatenate([np.repeat(lab[a:b], np.diff(np.r_[col[a:b], labels.shape[1]]))
+                            for a, b in zip(row_start[:-1], row_start[1:])])
+    assert np.array_equal(dense.reshape(labels.shape), labels)
+    gcapv = rng.normal(size=m)
+    for i0, j0, n, w in [(0, 0, 37, 53), (3, 7, 20, 30), (30, 40, 7, 13)]:
+        win, k = label_nodes(np.ascontiguousarray(band[i0:i0 + n, j0:j0 + w]))
+        flat = win.ravel()
+        first = np.array([np.flatnonzero(flat == q)[0] for q in range(k)])  # each region's first node
+        want = gcapv[labels[i0:i0 + n, j0:j0 + w].ravel()[first]]
+        got = local_cap_values_runs(win, k, i0, j0, row_start, col, lab, gcapv)
+        assert np.array_equal(got, want)

@@ -452,3 +452,25 @@ def test_blocked_domes_take_the_canvas_regions_d_max(monkeypatch):
     d = np.abs(eq.render().astype(float) - one)
     monkeypatch.undo()
     assert d.max() >= 10 and d.mean() > 0.3
+
+
+def test_blocked_labels_runs_or_dense_same_bytes(vi, forced_blocks, monkeypatch):
+    """A blocked level keeps its labels as row runs, or whole where runs would take more than
+    the 4 bytes a node the estimate counts: either way the same render."""
+    import weakref
+
+    from isophote.render import prepare
+
+    monkeypatch.setattr(prepare, "_PREPARED", weakref.WeakKeyDictionary())  # no earlier test's levels
+    runs = vi.render(scale=1, crop=(13, 7, 40, 30))
+    made = []
+    real = blocks.ChannelLevel._regions
+
+    def regions(self):
+        real(self)
+        made.append(self.gruns is None and self.glabels is not None)
+
+    monkeypatch.setattr(blocks.ChannelLevel, "_regions", regions)
+    monkeypatch.setattr(blocks, "MAX_RUNS", 0.0)  # every level keeps its labels whole
+    dense = vi.render(scale=1, crop=(13, 7, 40, 30))
+    assert made and all(made) and np.array_equal(dense, runs)

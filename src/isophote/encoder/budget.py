@@ -26,6 +26,7 @@ from __future__ import annotations
 import re
 
 from ..errors import OptionError
+from ..shared.heap import MMAP_THRESHOLD, return_freed_memory, trim_heap  # noqa: F401 (the encoder's names)
 
 DEFAULT_MEMORY = "2G"  # a laptop's share: the issue's target for a 16 MP photograph
 FIT_SHARE = 0.125
@@ -49,49 +50,6 @@ OVERLAP_SHARE = 0.25
 STRIP_SHARE = 0.125
 BYTES_PER_STRIP_SAMPLE = 256
 MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
-
-# Blocks of this size and up are mapped on their own, and given back to the system when
-# freed (glibc's M_MMAP_THRESHOLD, fixed: glibc otherwise raises it to the largest block freed
-# so far, up to 32 MB, and its heaps then keep every strip's freed temporaries beneath the
-# results that follow them). Whole process, balanced: the 2 MP mosaic crop 2,170 MB with
-# glibc's default, 1,578 MB with 1 MiB, 1,230 MB with 256 KiB (the per-strip results of
-# narrow strips are blocks of a few hundred KiB); benchmarks/results/encode_scale.md.
-MMAP_THRESHOLD = 1 << 18
-_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
-_libc = None
-_heap_set = False
-
-
-def _glibc():
-    """The C library when it is glibc (mallopt, malloc_trim), else False."""
-    global _libc
-    if _libc is None:
-        try:
-            import ctypes
-
-            lib = ctypes.CDLL(None)
-            _libc = lib if hasattr(lib, "malloc_trim") and hasattr(lib, "gnu_get_libc_version") else False
-        except OSError:  # no C library to ask: the default allocator
-            _libc = False
-    return _libc
-
-
-def return_freed_memory() -> None:
-    """Have the C allocator give large freed blocks back to the system at once (glibc
-    only, once per process; elsewhere nothing). The encoder's strips free and allocate
-    blocks of many sizes; without this the peak RSS follows what was freed, not what is held."""
-    global _heap_set
-    if not _heap_set and _glibc():
-        _glibc().mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
-    _heap_set = True
-
-
-def trim_heap() -> None:
-    """Give the free pages of every heap arena back to the system (glibc's malloc_trim;
-    elsewhere nothing): small blocks freed between the ones kept stay in the arenas otherwise."""
-    if _glibc():
-        _glibc().malloc_trim(0)
-
 
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 

@@ -30,7 +30,8 @@ from ._kernels.colour import yuv_quantise
 from ..errors import LimitError
 from ..options import RenderOptions, make
 from ..geometry import segment_starts
-from .blocks import ChannelLevel, make_level, split
+from ..shared.heap import return_freed_memory
+from .blocks import CANVAS_LOCK, ChannelLevel, make_level, split
 from .levels import auto_supersample, level_r
 from .prepare import prepared
 from .sharpen import gains
@@ -128,6 +129,7 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
     allocated. A channel's strips run one at a time (its block cache's lock), in order.
     ``progress``: called with the fraction done after each strip, or None."""
     opts.validate()
+    return_freed_memory()  # glibc: freed windows and canvas passes go back to the system (shared/heap.py)
     vp = viewport(vi, opts)
     prep = prepared(vi)
     states = {ch.name: channel_state(vi, ch, vp, opts, prep, plan_only=True) for ch in vi.channels}
@@ -226,7 +228,7 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
         first = prep.get(prep.edges, ch.name, lambda: segment_starts(ch.offsets)[0]) if prep is not None \
             else segment_starts(ch.offsets)[0]
         if level.block:
-            with _REGIONS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
+            with CANVAS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
                 return ChannelLevel(vi, ch, first, tol, level, rows, prep)
         return ChannelLevel(vi, ch, first, tol, level, rows, prep)
 
@@ -245,9 +247,6 @@ def _fill_params(vp: Viewport, opts: RenderOptions, r: float):
     tol = 0.05 / max(r, vp.kx, vp.ky)  # flatten finely enough for both the nodes and the samples
     gain = (0.0, 0.0) if opts.fill == "flat" else gains(float(opts.sharpen), vp.kx / vp.s, vp.ky / vp.s)
     return tol, gain, opts.fill != "linear"
-
-
-_REGIONS_LOCK = threading.Lock()
 
 
 def _plane_key(vi, ch, vp: Viewport, opts: RenderOptions):

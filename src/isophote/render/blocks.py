@@ -44,7 +44,7 @@ from .. import threads
 from ._kernels.diffuse import (D, NF, V, band_widths, evaluate, label_nodes, offer_coarse, offsets, propagate, region_caps,
                                seed)
 from ._kernels.raster import rasterise, rasterise_chains, rasterise_window
-from ._kernels.regions import cap_values, local_cap_values
+from ._kernels.regions import cap_values, local_cap_values_runs, row_runs
 from ._kernels.sharpen import correction
 from .distance import MAX_SWEEPS, MODES, NodeField
 from .segment_index import SegmentIndex
@@ -59,6 +59,11 @@ COARSE_NODES = 500_000  # at most this many nodes in a blocked level's coarse fi
 COARSE_TOL = 0.0125  # coarse nodes: the coarse field's flattening tolerance (0.05 px at 1/4)
 WINDOW_BYTES = 72  # bytes a node of a kept window (fields 48, band, labels, fill, widths)
 WINDOW_PEAK_BYTES = 120  # while it is computed (crossings), as distance.NODE_BYTES
+# The canvas-wide passes of blocked levels (their regions, their coarse fields) run one at a
+# time, whichever channel or render asks: each holds a level's bands and labels or a
+# channel's edges while it runs, and side by side their memory adds up.
+CANVAS_LOCK = threading.Lock()
+MAX_RUNS = 0.5  # runs a node above which a blocked level keeps its labels whole (8 bytes a run, 4 a label)
 
 
 def block_size(zoom_per_node: float) -> int:
@@ -142,15 +147,21 @@ class ChannelLevel:
     segment's edges do not depend on which others are flattened with it, nor a window's
     bands and crossings on the edges that miss it."""
 
-    def __init__(self, vi, ch, first, tol: float, level: Level, sample_rows=(0.0, 0.0), shared=None):
+    def __init__(self, vi, ch, first, tol: float, level: Level, sample_rows=(0.0, 0.0), shared=None,
+                 fields_only: bool = False):
         self.vi, self.ch, self.level, self.tol, self.shared = vi, ch, level, tol, shared
-        self.glabels = self.gcapv = None
+        self.gcapv = self.gruns = self.glabels = self.gband_cols = None
         self._coarse, self._coarse_lock = {}, threading.Lock()
         self.edges = None
         nbr, nbc = level.blocks()
         self.index = SegmentIndex(ch.points, first, ch.border, level.r, level.block, nbr, nbc, sample_rows)
         if not level.block:
-            self.edges = self.index.edges(None, tol)
+            # a level whose samples are read here keeps its edges; one that only gives fields
+            # (a coarse field: ``fields_only``) flattens its segments as it rasterises them
+            # (the same bands and crossings, bit for bit: raster.rasterise_chains), which for a
+            # 16 MP photograph's luma is a gigabyte of edges and mapped copies less
+            if not fields_only:
+                self.edges = self.index.edges(None, tol)
             return
         self._regions()
 
@@ -187,7 +198,30 @@ class ChannelLevel:
         labels, m = label_nodes(band)
         self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
                                 ch.cap_band.astype(np.int64), ch.cap_value)
-        self.glabels, self.gband = labels, band
+        # what the windows read of the level's bands and labels is kept, not the whole (6
+        # bytes a node: 98 MB a channel at 1x for 16 MP): the band of each window's first
+        # column, the labels as runs along the rows (0.36 runs a node on the mosaic's luma,
+        # 0.07 on its chroma: 8 bytes a run), and both at the coarse field's node centres
+        # (a level whose labels change more often than every second node keeps them whole:
+        # never more than the 4 bytes a node that limits_render counts)
+        runs = row_runs(labels)
+        self.gruns, self.glabels = (runs, None) if len(runs[1]) <= labels.size * MAX_RUNS else (None, labels)
+        first_cols = sorted({lv.window(0, bj)[1] for bj in range(lv.blocks()[1])})
+        self.gband_cols = {j: np.ascontiguousarray(band[:, j]) for j in first_cols}
+        coarse, k = lv.coarse_level(), lv.coarse
+        ii = np.minimum(np.arange(coarse.nr) * k + k // 2, lv.nr - 1)
+        jj = np.minimum(np.arange(coarse.nc) * k + k // 2, lv.nc - 1)
+        self.coarse_labels, self.coarse_bands = labels[np.ix_(ii, jj)], band[np.ix_(ii, jj)].astype(np.int64)
+        del labels, band, runs
+
+    def _window_caps(self, labels, nreg: int, i0: int, j0: int, values) -> np.ndarray:
+        """values (one a canvas region) of each region of the window whose first node is
+        (i0, j0): the canvas region's at its first node."""
+        if self.gruns is not None:
+            return local_cap_values_runs(labels, nreg, i0, j0, *self.gruns, values)
+        n, m = labels.shape
+        window = row_runs(np.ascontiguousarray(self.glabels[i0:i0 + n, j0:j0 + m]))
+        return local_cap_values_runs(labels, nreg, 0, 0, *window, values)
 
     def _distances(self, i0: int, j0: int, n: int, m: int, mode: int):
         """The window's bands and distance fields (seeded, propagated), in window node
@@ -195,8 +229,8 @@ class ChannelLevel:
         lv, ch, r = self.level, self.ch, self.level.r
         # a blocked window takes only the segments that reach it: the winding of those wholly
         # left of it is the canvas band's at its first column (the same edges, so the same sum)
-        if lv.block:
-            ids = self.window_segments(i0, j0, n, m)
+        if lv.block or self.edges is None:
+            ids = self.window_segments(i0, j0, n, m) if lv.block else self.index.ids
             ix = self.index
             (band, *h), (_, *v) = rasterise_window(ix.points, ix.first, ix.border, ids, self.tol, r, float(j0),
                                                    float(i0), n, m)
@@ -206,7 +240,7 @@ class ChannelLevel:
             _, *v = rasterise(y0 * r - i0, x0 * r - j0, y1 * r - i0, x1 * r - j0, es, 0, 0, m, n, True, True)
         band += np.int16(ch.base_band)
         if lv.block:
-            band += (self.gband[i0:i0 + n, j0] - band[:, 0])[:, None]
+            band += (self.gband_cols[j0][i0:i0 + n] - band[:, 0])[:, None]
         F = seed(band, tuple(h), tuple(v), ch.levels, mode)
         del h, v
         if lv.block:
@@ -226,8 +260,9 @@ class ChannelLevel:
         coarse = self.level.coarse_level()
 
         def make():
-            cl = ChannelLevel(self.vi, self.ch, self.index.first, COARSE_TOL / coarse.r, coarse)
-            return cl._distances(0, 0, coarse.nr, coarse.nc, mode)[1]
+            with CANVAS_LOCK:
+                cl = ChannelLevel(self.vi, self.ch, self.index.first, COARSE_TOL / coarse.r, coarse, fields_only=True)
+                return cl._distances(0, 0, coarse.nr, coarse.nc, mode)[1]
 
         key = (self.ch.name, coarse, mode)
         if self.shared is not None:
@@ -245,11 +280,7 @@ class ChannelLevel:
             out = self._coarse.get(("dmax", mode))
         if out is None:
             Fc, k = self.coarse_field(mode), self.level.coarse
-            nr, nc = self.glabels.shape
-            ii = np.minimum(np.arange(Fc.shape[2]) * k + k // 2, nr - 1)
-            jj = np.minimum(np.arange(Fc.shape[3]) * k + k // 2, nc - 1)
-            g = self.glabels[np.ix_(ii, jj)]
-            b = self.gband[np.ix_(ii, jj)].astype(np.int64)
+            g, b = self.coarse_labels, self.coarse_bands  # the level's at the coarse nodes' centres
             lv = self.ch.levels.astype(np.float32)
             nl = len(lv)
             out = np.zeros((len(self.gcapv), 2))
@@ -279,8 +310,7 @@ class ChannelLevel:
         if lv.block:
             none = np.zeros(0)
             dmax, _ = region_caps(F, band, labels, nreg, none, none, np.zeros(0, np.int64), none)
-            gl = self.glabels[i0:i0 + n, j0:j0 + m]
-            capv = local_cap_values(labels, nreg, gl, self.gcapv)
+            capv = self._window_caps(labels, nreg, i0, j0, self.gcapv)
             # a region that leaves the window: its d_max is at least the canvas region's as
             # the coarse field sees it (coarse_dmax); one within the window keeps its own
             cuts = lv.cuts(i0, j0, n, m)
@@ -291,7 +321,7 @@ class ChannelLevel:
                         leaves[edge] = True
                 gd = self.coarse_dmax(mode)
                 for s in range(2):
-                    wide = local_cap_values(labels, nreg, gl, np.ascontiguousarray(gd[:, s]))
+                    wide = self._window_caps(labels, nreg, i0, j0, np.ascontiguousarray(gd[:, s]))
                     dmax[:, s] = np.where(leaves, np.maximum(dmax[:, s], wide), dmax[:, s])
         else:
             dmax, capv = region_caps(F, band, labels, nreg, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,

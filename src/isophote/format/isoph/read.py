@@ -12,6 +12,7 @@ import numpy as np
 
 from ...errors import FormatError
 from ...model import VectorImage
+from ...shared.heap import return_freed_memory
 from ..limits import COMPRESSION_RANGE, COMPRESSION_STORED, COMPRESSION_ZLIB, LZMA_DICT_SIZE
 from .columns import Columns, decode_column_channel
 from .header import checked_header, guarded, parse_header, read_head, with_where
@@ -57,6 +58,7 @@ def load(path) -> VectorImage:
 
 def decode(h: Header, payload) -> VectorImage:
     """The image from a checked header and its payload (bytes or memoryview)."""
+    return_freed_memory()  # glibc: the decoders' temporaries go back to the system (shared/heap.py)
     if zlib.crc32(payload) != h.payload_crc:
         raise FormatError("payload checksum mismatch (corrupted payload)")
     if h.compression == COMPRESSION_RANGE:

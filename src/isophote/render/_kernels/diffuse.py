@@ -265,7 +265,9 @@ def propagate(F, band, offs, mode, max_iter):
 def label_nodes(band):
     """8-connected regions of equal band: (labels (nr, nc) int32, count)."""
     nr, nc = band.shape
-    parent = np.arange(nr * nc)
+    parent = np.empty(nr * nc, np.int32)  # int32 (a level's nodes are far below 2**31): the labels
+    for k in range(nr * nc):
+        parent[k] = k
     for i in range(nr):
         for j in range(nc):
             b = band[i, j]
@@ -276,7 +278,7 @@ def label_nodes(band):
                 if 0 <= ii < nr and 0 <= jj < nc and band[ii, jj] == b:
                     union(parent, k, ii * nc + jj)
     m = label_in_place(parent)  # numbered in scan order of each region's first node
-    return parent.astype(np.int32).reshape(nr, nc), m
+    return parent.reshape(nr, nc), m
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
