@@ -146,7 +146,15 @@ def ref_fields(ch, info, version=4) -> dict:
                 levels=info.levels.tolist(), base_band=info.base_band, version=version)
 
 
-VERSIONS = (2, 3, 4)  # the range-coded layouts: every one that a reader reads
+VERSIONS = (2, 3, 4, 5)  # the range-coded layouts: every one that a reader reads
+
+
+def kernel_decode(data, *args, workers=None):
+    """The kernels' decoder of a layout (5: rangecoded.decode_parts, its parts in threads)."""
+    version = args[-1]
+    if version >= 5:
+        return isoph_range.decode_parts(data, *args, workers=workers)
+    return E.decode_channel(data, *args)
 
 
 def check_channel(c, versions=VERSIONS):
@@ -164,7 +172,7 @@ def check_channel_version(c, version):
     assert coded == R.encode_channel(ref_fields(ch, info, version))
     args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v)
     ref = R.decode_channel(coded, *args, info.levels.tolist(), info.base_band, version)
-    out = E.decode_channel(np.frombuffer(coded, np.uint8).copy(), *args, info.levels, info.base_band, version)
+    out = kernel_decode(np.frombuffer(coded, np.uint8).copy(), *args, info.levels, info.base_band, version)
     assert out[0] == E.OK
     level, nseg, parent, q, border, cap_contour, cap_band, cq, vq = out[3:]
     assert level.tolist() == ref["level"] == ch.level.tolist()
@@ -250,8 +258,8 @@ def test_version_4_codes_coarse_handles_smaller():
 
 
 def decode_both(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, version=4):
-    out = E.decode_channel(np.frombuffer(data, np.uint8).copy(), c, s, k, g, s_p, s_c, s_v,
-                           np.asarray(levels, np.float64), base_band, version)
+    out = kernel_decode(np.frombuffer(data, np.uint8).copy(), c, s, k, g, s_p, s_c, s_v,
+                        np.asarray(levels, np.float64), base_band, version)
     try:
         ref = R.decode_channel(data, c, s, k, g, s_p, s_c, s_v, list(levels), base_band, version)
     except R.Invalid as e:
@@ -262,7 +270,7 @@ def decode_both(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, versi
 STATUS_NAMES = {E.E_RANK: "rank", E.E_PARENT: "parent", E.E_LEVEL: "level", E.E_NSEG: "nseg",
                 E.E_NSEG_SHORT: "nseg short", E.E_POINT: "point", E.E_CAP_CONTOUR: "cap contour",
                 E.E_CAP_XY: "cap xy", E.E_CAP_VALUE: "cap value", E.E_SHORT: "short", E.E_LONG: "long",
-                E.E_SHIFT: "handle shift"}
+                E.E_SHIFT: "handle shift", E.E_PARTS: "parts"}
 
 
 @settings(max_examples=200, deadline=None, derandomize=True, database=None)
@@ -330,3 +338,90 @@ def test_mutated_channels_decode_alike(version):
         verdicts.add(name)
         assert name == (ref if isinstance(ref, str) else "ok")
     assert len(verdicts) > 2, verdicts
+
+
+# ---- layout 5: the points in parts -------------------------------------------------------------
+
+
+def test_parts_follow_the_segment_counts():
+    """A part ends after the contour that brings it to part_segments or more; both coders
+    cut alike, and the spec's PART_SEGMENTS is theirs."""
+    nseg = np.array([3, 1, 1, 5, 2, 2, 9, 1], np.int64)
+    assert E.part_starts(nseg, 4).tolist() == R.part_starts(nseg.tolist(), 4) == [0, 2, 4, 6, 7, 8]
+    assert E.part_starts(nseg, 100).tolist() == [0, 8]  # one part
+    assert E.part_starts(nseg, 0).tolist() == [0, 8]  # layouts 2 to 4
+    assert E.part_starts(np.zeros(0, np.int64), 4).tolist() == [0, 0]
+    from pathlib import Path
+
+    spec = (Path(__file__).parents[2] / "docs" / "format.md").read_text(encoding="utf-8")
+    assert E.PART_SEGMENTS == R.PART_SEGMENTS == 1 << 18 and "`PART_SEGMENTS` = 2¹⁸" in spec
+
+
+def _parted(monkeypatch, part_segments=6):
+    """A grey channel of many contours, coded in layout 5 with parts of part_segments."""
+    monkeypatch.setattr(E, "PART_SEGMENTS", part_segments)
+    vi = isophote.encode(np.clip(128 + 90 * np.sin(np.add.outer(np.arange(24) / 3.0, np.arange(28) / 4.0))
+                                 * np.cos(np.arange(28) / 5.0), 0, 255))
+    ch = isoph_write.checked_channel(vi.channels[0])
+    return vi, ch, isoph_range.range_channel(ch, 5)
+
+
+def test_parts_code_as_the_spec_says_and_decode_in_any_number_of_threads(monkeypatch):
+    vi, ch, coded = _parted(monkeypatch)
+    info = ch.info
+    fields = ref_fields(ch, info, 5)
+    fields["part_segments"] = 6
+    assert coded == R.encode_channel(fields)
+    parts = int.from_bytes(coded[-4:], "little") + 1
+    assert parts == len(E.part_starts(ch.nseg, 6)) - 1 > 4
+    args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v, info.levels,
+            info.base_band, 5)
+    data = np.frombuffer(coded, np.uint8).copy()
+    outs = [isoph_range.decode_parts(data, *args, workers=w) for w in (1, 2, 8)]
+    assert all(o[0] == E.OK for o in outs)
+    for o in outs[1:]:
+        assert all(np.array_equal(a, b) for a, b in zip(o[3:], outs[0][3:]))
+    assert np.array_equal(outs[0][6], ch.q) and outs[0][5].tolist() == ch.parent.tolist()
+    ref = R.decode_channel(coded, *args[:7], info.levels.tolist(), info.base_band, 5, part_segments=6)
+    assert [list(p) for chain in ref["chains"] for p in chain] == ch.q.tolist()
+    # the whole file: written in parts, read back the same image
+    assert isoph.loads(isoph.dumps(vi)).equals(vi)
+
+
+def test_parts_cost_their_fresh_probabilities_only(monkeypatch):
+    """Each later part starts its probabilities afresh: a few bytes a part more than one
+    stream, the table's 4 a part, and nothing else."""
+    _, ch, one = _parted(monkeypatch, 1 << 18)
+    _, _, many = _parted(monkeypatch, 6)
+    v4 = isoph_range.range_channel(ch, 4)
+    parts = int.from_bytes(many[-4:], "little")
+    assert len(one) == len(v4) + 4  # one part: version 4's stream and a count of 0
+    assert len(v4) + 4 + 4 * parts < len(many) < len(v4) + 4 + 4 * parts + 40 * parts
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_mutated_parts_decode_alike(monkeypatch, seed):
+    """Layout 5 channels of many parts with a byte changed or cut short: the same verdict
+    from both decoders, whichever stream or table the change hits."""
+    _, ch, coded = _parted(monkeypatch)
+    info = ch.info
+    rng = np.random.default_rng(seed)
+    verdicts = set()
+    for _ in range(40):
+        bad = bytearray(coded)
+        at = int(rng.integers(0, len(bad)))
+        bad[at] = int(rng.integers(0, 256))
+        if rng.random() < 0.3:
+            bad = bad[: int(rng.integers(0, len(bad)))]
+        args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v)
+        out = isoph_range.decode_parts(np.frombuffer(bytes(bad), np.uint8).copy(), *args, info.levels,
+                                       info.base_band, 5, workers=2)
+        try:
+            R.decode_channel(bytes(bad), *args, info.levels.tolist(), info.base_band, 5, part_segments=6)
+            ref = "ok"
+        except R.Invalid as e:
+            ref = e.args[0]
+        name = STATUS_NAMES.get(out[0], "ok")
+        verdicts.add(name)
+        assert name == ref, (at, len(bad))
+    assert "parts" in verdicts and len(verdicts) > 2, verdicts

@@ -174,7 +174,7 @@ def grid_shift(values, most=6) -> int:
     return s
 
 
-def spec_range(c: dict, version: int = 4) -> tuple:
+def spec_range(c: dict, version: int = 5) -> tuple:
     """One channel's range-coded bytes in ``version``'s layout and its grids (s_p, g, s_c,
     s_v), as the spec says: the coarsest grids that lose nothing; the anchor grid g scoring
     best at 2 g (on-grid anchor coordinates) - 3 (anchors), if that is > 0. A dict may set
@@ -201,7 +201,7 @@ def spec_range(c: dict, version: int = 4) -> tuple:
 
 
 def spec_file(channels, *, width=40, height=30, colour=0, depth=8, compression=0, xy_quant=64,
-              value_quant=64, version=4, reserved=0, meta=b"", raw_extra=b"", raw_size=None,
+              value_quant=64, version=5, reserved=0, meta=b"", raw_extra=b"", raw_size=None,
               header_extra=b"", payload_size=None, file_extra=b"", payload=None) -> bytes:
     """A file from spec-level fields; every field can lie, the checksums are always right.
 
@@ -494,7 +494,7 @@ def range_coded(c: dict) -> bytes:
 LIES = {
     # name: (spec_file arguments, exception, message fragment)
     "bad magic": (None, FormatError, "bad magic"),
-    "version 5": (dict(version=5), FormatError, "version 5"),
+    "version 6": (dict(version=6), FormatError, "version 6"),
     "reserved": (dict(reserved=1), FormatError, "reserved"),
     "width 0": (dict(width=0), FormatError, "empty"),
     "width absurd": (dict(width=(1 << 20) + 1), LimitError, "exceeds"),
@@ -706,7 +706,7 @@ def test_save_load_and_read_info(tmp_path):
     assert isoph.load(str(path)).equals(vi)
     for source in (path, str(path), path.read_bytes()):
         info = isoph.read_info(source)
-        assert info["format_version"] == 4 and info["compression"] == "range"
+        assert info["format_version"] == 5 and info["compression"] == "range"
         assert (info["width"], info["height"], info["colour"]) == (vi.width, vi.height, "yuv")
         assert info["source_depth"] == vi.source_depth
         assert info["bytes"] == path.stat().st_size
@@ -908,7 +908,7 @@ def test_version_1_files_are_read():
     out = isoph.loads(old)
     assert out.equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
     assert isoph.read_info(old)["format_version"] == 1
-    assert isoph.read_info(isoph.dumps(out))["format_version"] == 4
+    assert isoph.read_info(isoph.dumps(out))["format_version"] == 5
 
 
 # random_image(3, "yuv", n_contours=2, n_levels=3) as version 1's writer (isophote 0.1) wrote it
@@ -959,7 +959,7 @@ def test_version_2_files_are_read():
     contours on an anchor grid."""
     for seed in (43, 44):
         out, data = spec_range_round_trip(seed, 2)
-        assert isoph.dumps(out) != data  # written again as version 4: another layout
+        assert isoph.dumps(out) != data  # written again as version 5: another layout
     old = bytes.fromhex(V2_FILE)
     assert isoph.read_info(old)["format_version"] == 2 and isoph.read_info(old)["compression"] == "range"
     assert isoph.loads(old).equals(random_image(3, "yuv", tone=False, n_contours=2, n_levels=3))
@@ -969,13 +969,13 @@ def test_version_2_files_are_read():
     out = isoph.loads(old)
     assert fingerprint(out) == V2_FITTED_FINGERPRINT
     again = isoph.dumps(out)
-    assert isoph.read_info(again)["format_version"] == 4 and isoph.loads(again).equals(out)
+    assert isoph.read_info(again)["format_version"] == 5 and isoph.loads(again).equals(out)
 
 
 def test_version_3_files_are_read():
     """Range-coded files of format version 3 load: the spec writer's (version 3's layout,
     every handle coded on the 1/64 grid) and a file of fitted contours written by version
-    3's own writer; written again they become version 4."""
+    3's own writer; written again they become version 5."""
     for seed in (45, 46):
         spec_range_round_trip(seed, 3)
     old = bytes.fromhex(V3_FILE)
@@ -983,7 +983,48 @@ def test_version_3_files_are_read():
     out = isoph.loads(old)
     assert fingerprint(out) == V3_FINGERPRINT
     again = isoph.dumps(out)
-    assert isoph.read_info(again)["format_version"] == 4 and isoph.loads(again).equals(out)
+    assert isoph.read_info(again)["format_version"] == 5 and isoph.loads(again).equals(out)
+
+
+def test_version_4_files_are_read():
+    """Range-coded files of format version 4 (one stream a channel, no parts) load: the spec
+    writer's and a file of fitted contours written by version 4's own writer (isophote at
+    ca64fb9); written again they become version 5, the same image."""
+    for seed in (47, 48):
+        spec_range_round_trip(seed, 4)
+    old = bytes.fromhex(V4_FILE)
+    assert isoph.read_info(old)["format_version"] == 4
+    out = isoph.loads(old)
+    assert sum(c.n_contours for c in out.channels) > 10 and fingerprint(out) == V4_FINGERPRINT
+    again = isoph.dumps(out)
+    assert isoph.read_info(again)["format_version"] == 5 and isoph.loads(again).equals(out)
+
+
+# 128 + 60 sin(x / 2) cos(y / 3) + N(0, 4) (seed 3) on 12 x 14, encoded (paper preset) and
+# written by version 4's writer, meta dropped
+V4_FILE = (
+    "8949534f50480d0a040000002b0100000c0000000e00000000080103400040008e02000000000000440e000000000000"
+    "2a2335150000000059190007001600000089000000070000000000000505048e020000000000000000000000001e4000"
+    "000000008031400000000000803b400000000000c042400000000000c047400000000000c04c400000000000e0504000"
+    "000000006053400000000000e0554000000000006058400000000000e05a400000000000605d400000000000e05f4000"
+    "0000000030614000000000007062400000000000b063400000000000f064400000000000306640000000000070674000"
+    "00000000b068400000000000f069400000000000306b400000000000706c400000000000b06d400000000000f06e4000"
+    "000000000000401d8b47e09c1b51a2f94960ebb5ec19f1fa16620736625bfa70520ffe0d4d3d1b9da846a273112f597a"
+    "88bdc73f8c400ce0cfe0e1ff063c0c76bb3c9b771ec31a20b8fa29448361328d1b3798ae75e66570f7754d9ae19de7aa"
+    "041067cdab7c6ceea6b45ff6865d711d42edf0e8543eedbcc504d78739c0d532614517839f4a1d23e75f28a460558abb"
+    "dd772457c9b121741eaf7409f281a82e0d926f23f9fdd2bb6386834cd02aae704d381f49c2212ebc1b486c578c605f8e"
+    "1e3ca2f559a1d7559ae9a342cd0c50850b5d4c328dd1f839d6944d5809cf454a38283174a625755557977d5d7e1000aa"
+    "e29e4b9c085529c5369bed558ee36170a65d5e0f882411df6d1a86a41a48b4dc4b5866187c52ebf463a4e06c6b6cfebf"
+    "77a4194a43fe3e35953a52fb1f7419d423595f2449643f4f855defbf30dcd1f894c8eafacd485a3cf0adc86c2b2f4ccd"
+    "186f5973b669c04f78a404430022a939e91d7f0a593dd842b5a3b9588fd0e7e6557d3fead7ac5a4e0dc9aa0a7268b750"
+    "80bd9759c45f90bb7bf0b8ee9194a8394029300791290c468523bae0b9cdfbd668ed89327582ac148b199ca1ae7752ac"
+    "f778a952febfa95c3b041e437e3f4907756b66d938357029517101e39bedfd9455e1130c4b4a6c943ec2ae7eb66c2272"
+    "8b2f5596066d26b55ae4361d58ba123e74c11753a3e67e7a129e4a30eb4497d38aa22bf21d7366fc307679de78670258"
+    "0d5eef33edb898d0248acd5eb73463ee2f165e21bccc9245bb55ea7806f79411f7e2c7e982926e68b4b0d3c386aa7165"
+    "9780a35285872f7963975d0d7c2284c7b1786057be31ed25faa5ff19d9b0361f8d7fe6a219f126e2d0d0fcdd8a225192"
+    "1a4eae4cdf14f985d060916c8a5321287d642287e00c488901810c006d319d7d1bf5c76bdf6f0c8680"
+)
+V4_FINGERPRINT = "8d8740622ad50b30f83f70568941a50e9dce6ae2b3be926517721e0cfc7678e3"
 
 
 # a 12 x 14 sine pattern with noise, encoded (balanced) and written by version 3's writer

@@ -14,8 +14,8 @@ from ..shared.grid import QUANT  # coordinates in 1/QUANT px, cap values in 1/QU
 # The first byte has its high bit set and the last two are CR LF, so 7-bit transfers and newline
 # conversion both break it (the trick of PNG's signature).
 MAGIC = b"\x89ISOPH\r\n"
-FORMAT_VERSION = 4  # written
-READ_VERSIONS = (1, 2, 3, 4)  # read: every file an earlier isophote wrote stays readable
+FORMAT_VERSION = 5  # written
+READ_VERSIONS = (1, 2, 3, 4, 5)  # read: every file an earlier isophote wrote stays readable
 SVG_FORMAT_VERSION = 1  # the isophote SVG profile's iso:format
 GZIP_MAGIC = b"\x1f\x8b"  # an SVGZ is told by this, not by its name
 

@@ -85,29 +85,14 @@ def check_range(a: np.ndarray, lo: int, hi: int, what: str) -> None:
 
 
 def is_forest(parent: np.ndarray) -> bool:
-    """True when following parent links from every contour reaches -1 (no cycle). O(C).
+    """True when following parent links (in [-1, C)) from every contour reaches -1 (no
+    cycle). O(C), iterative: deep nesting cannot overflow a stack (_kernels/forest.py)."""
+    from ._kernels.forest import is_forest as kernel
 
-    Parents that all precede their children (a natural order for an encoder) make a forest
-    at once. Otherwise Kahn's algorithm peels contours without children until none is left;
-    the contours of a cycle never lose their last child. Iterative: deep nesting cannot
-    overflow a stack.
-    """
     c = parent.shape[0]
-    if np.all(parent < np.arange(c)):
+    if np.all(parent < np.arange(c)):  # parents before their children: a forest at once
         return True
-    children = np.bincount(parent[parent >= 0], minlength=c).tolist()
-    par = parent.tolist()
-    todo = [k for k in range(c) if children[k] == 0]
-    peeled = 0
-    while todo:
-        k = todo.pop()
-        peeled += 1
-        p = par[k]
-        if p >= 0:
-            children[p] -= 1
-            if children[p] == 0:
-                todo.append(p)
-    return peeled == c
+    return bool(kernel(np.ascontiguousarray(parent, np.int64)))
 
 
 def check_semantics(label, n_levels, contour_level, parent, cap_band, cap_contour) -> None:

@@ -51,6 +51,9 @@ M_HX, M_HY, M_GX, M_GY = M["HX"], M["HY"], M["GX"], M["GY"]
 M_CC, M_BAND_REL, M_BAND_ROOT, M_CXY, M_CVAL = M["CC"], M["BAND_REL"], M["BAND_ROOT"], M["CXY"], M["CVAL"]
 M_HS = M["HS"]
 MAX_HANDLE_SHIFT = 5  # layout 4: a segment's handles on the 2**h grid, h = 0 .. this
+# layout 5: the points in parts of at least this many segments (whole contours), each part but
+# the first its own stream with fresh probabilities, so that a reader decodes them side by side
+PART_SEGMENTS = 1 << 18
 BORDER_CTX = NB * NB  # the HY/GX/GY model of border segments
 
 LIMIT = 1 << 30  # |coordinate| and |cap value| in 1/64 units (isoph.COORD_LIMIT)
@@ -67,6 +70,7 @@ E_CAP_CONTOUR = 7
 E_CAP_XY = 8
 E_CAP_VALUE = 9
 E_SHIFT = 12
+E_PARTS = 13  # layout 5: the parts' table does not fit the data, or not the contours
 
 
 # =============================================================================================
@@ -389,7 +393,7 @@ def _enc_caps(st, out, probs, level, nseg, pts, cap_contour, cap_band, cap_xy, c
 
 @njit(cache=True, nogil=True)
 def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, cap_xy, cap_value,
-                   s_p, s_c, s_v, levels, base_band, layout, account):
+                   s_p, s_c, s_v, levels, base_band, layout, account, part_segments=PART_SEGMENTS):
     """One channel's coded bytes (uint8 array), and the bits spent per model and flag slot
     (float64, N_MODELS + 18 entries; all 0 unless ``account``: it slows coding down).
 
@@ -400,8 +404,9 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     cap_contour, cap_band : (K,) int64; cap_xy : (K, 2) int64 on the cap grid;
     cap_value : (K,) int64 on the value grid.
     s_p, s_c, s_v : the grids' shifts from 1/64; levels : (L,) float64; base_band : int.
-    layout : 2, 3 or 4, the format version whose predictions to use (3: chords after half the
-        previous chord, handles in the chord's frame; 4: 3 and the handle shifts).
+    layout : 2 to 5, the format version whose predictions to use (3: chords after half the
+        previous chord, handles in the chord's frame; 4: 3 and the handle shifts; 5: 4 with the
+        points in parts of part_segments, part_starts).
     """
     probs = new_probs_kernel()
     st = np.zeros(5 + (1 + N_MODELS + 18 if account else 0), np.int64)
@@ -412,24 +417,84 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     c = level.shape[0]
     out = np.empty(64 + 4 * c + 8 * pts.shape[0] + 8 * cap_contour.shape[0], np.uint8)
     out = _enc_contours(st, out, probs, level, nseg, parent)
-    prev_h = 0
-    px0 = np.int64(0)  # the previous contour's P0
-    py0 = np.int64(0)
-    t = 0
-    s0 = 0
+    starts = part_starts(nseg, part_segments if layout >= 5 else 0)
+    t0 = np.zeros(c + 1, np.int64)  # each contour's first stored point, and its first segment
     for k in range(c):
-        out, prev_h = _enc_chain(st, out, probs, pts, border, t, s0, nseg[k], g, layout, px0, py0, prev_h)
-        px0 = pts[t, 0]
-        py0 = pts[t, 1]
-        t += 3 * nseg[k]
-        s0 += nseg[k]
+        t0[k + 1] = t0[k] + 3 * nseg[k]
+    sizes = np.zeros(starts.shape[0] - 2, np.int64)
+    tail = np.empty(0, np.uint8)  # parts 1 .. P - 1 (layout 5: then their sizes and P - 1)
+    for p in range(starts.shape[0] - 1):
+        if p == 0:  # in the channel's own stream, after the contours
+            out = _enc_points(st, out, probs, pts, border, nseg, starts[0], starts[1], t0, g, layout)
+            continue
+        pst = np.zeros(st.shape[0], np.int64)
+        pst[1] = 0xFFFFFFFF
+        pst[3] = 1
+        if account:
+            pst[5] = F_BORDER
+        pout = np.empty(64 + 8 * (t0[starts[p + 1]] - t0[starts[p]]), np.uint8)
+        pout = _enc_points(pst, pout, new_probs_kernel(), pts, border, nseg, starts[p], starts[p + 1], t0, g, layout)
+        pout = _grow(pout, pst[4] + pst[3] + 16)
+        part = _finish(pst, pout)
+        sizes[p - 1] = part.shape[0]
+        tail = _grow(tail, sizes[: p - 1].sum() + part.shape[0])  # doubling: linear in the parts' bytes
+        tail[sizes[: p - 1].sum(): sizes[:p].sum()] = part
+        if account:
+            st[6:] += pst[6:]
     out = _enc_caps(st, out, probs, level, nseg, pts, cap_contour, cap_band, cap_xy, cap_value,
                     s_p, s_c, s_v, levels, base_band)
     out = _grow(out, st[4] + st[3] + 16)
     bits = np.zeros(N_MODELS + 18)
     if account:
         bits[:] = st[6:] / 1e6
-    return _finish(st, out), bits
+    head = _finish(st, out)
+    if layout < 5:
+        return head, bits
+    count = np.full(1, sizes.shape[0], np.int64)
+    return np.concatenate((head, tail[: sizes.sum()], _u32_le(sizes), _u32_le(count))), bits
+
+
+@njit(cache=True, nogil=True)
+def part_starts(nseg, part_segments):
+    """The first contour of each part of the points, and C: [0, ..., C] (layout 5). A part
+    ends after the contour that brings it to part_segments segments or more (0: one part)."""
+    c = nseg.shape[0]
+    out = np.empty(c + 2, np.int64)
+    out[0] = 0
+    n = 1
+    acc = 0
+    for k in range(c):
+        acc += nseg[k]
+        if part_segments > 0 and acc >= part_segments and k + 1 < c:
+            out[n] = k + 1
+            n += 1
+            acc = 0
+    out[n] = c
+    return out[: n + 1].copy()
+
+
+@njit(cache=True, nogil=True)
+def _u32_le(v):
+    out = np.empty(4 * v.shape[0], np.uint8)
+    for i in range(v.shape[0]):
+        for b in range(4):
+            out[4 * i + b] = (v[i] >> (8 * b)) & 0xFF
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _enc_points(st, out, probs, pts, border, nseg, k0, k1, t0, g, layout):
+    """Contours k0 .. k1 - 1's points, P0 of k0 against (0, 0) and the handle-shift context
+    from 0: a part of the points (the whole of them before layout 5)."""
+    prev_h = 0
+    px0 = np.int64(0)  # the previous contour's P0
+    py0 = np.int64(0)
+    for k in range(k0, k1):
+        t = t0[k]
+        out, prev_h = _enc_chain(st, out, probs, pts, border, t, t // 3, nseg[k], g, layout, px0, py0, prev_h)
+        px0 = pts[t, 0]
+        py0 = pts[t, 1]
+    return out
 
 
 @njit(cache=True, nogil=True)
@@ -543,13 +608,28 @@ def _dec_chain(ds, inp, probs, q, border, t, s0, n, g, layout, lim, px0, py0, pr
 def _dec_points(ds, inp, probs, nseg, q, border, first, g, s_p, layout):
     """Every contour's points (_dec_chain), then q from the point grid to 1/64 px:
     (status, where, what)."""
+    status, where, what = decode_part(ds, inp, probs, nseg, q, border, first, 0, nseg.shape[0], g, s_p, layout)
+    if status == OK:
+        shift_points(q, s_p)
+    return status, where, what
+
+
+@njit(cache=True, nogil=True)
+def decode_part(ds, inp, probs, nseg, q, border, first, k0, k1, g, s_p, layout):
+    """Contours k0 .. k1 - 1's points into q (on the point grid) and border, and their first
+    points' rows into first (also those of the contours before k0, which the points of these
+    do not depend on): the inverse of _enc_points, (status, where, what). Parts write disjoint
+    rows of q, border and first, so that threads may decode them side by side."""
     lim = LIMIT >> s_p  # |u << s_p| < LIMIT  <=>  |u| < lim (s_p <= 6)
+    t = 0
+    s0 = 0
+    for j in range(k0):
+        t += 3 * nseg[j] + 1
+        s0 += nseg[j]
     prev_h = 0
     px0 = np.int64(0)
     py0 = np.int64(0)
-    t = 0
-    s0 = 0
-    for j in range(nseg.shape[0]):
+    for j in range(k0, k1):
         n = nseg[j]
         first[j] = t
         status, px0, py0, prev_h = _dec_chain(ds, inp, probs, q, border, t, s0, n, g, layout, lim, px0, py0, prev_h)
@@ -557,11 +637,16 @@ def _dec_points(ds, inp, probs, nseg, q, border, first, g, s_p, layout):
             return status, j, 0
         t += 3 * n + 1
         s0 += n
+    return OK, 0, 0
+
+
+@njit(cache=True, nogil=True)
+def shift_points(q, s_p):
+    """q from the point grid to 1/64 px."""
     if s_p > 0:
         for i in range(q.shape[0]):
             q[i, 0] <<= s_p
             q[i, 1] <<= s_p
-    return OK, 0, 0
 
 
 @njit(cache=True, nogil=True)
@@ -605,30 +690,62 @@ def _dec_caps(ds, inp, probs, level, q, first, s_c, s_v, levels, base_band, cap_
 
 @njit(cache=True, nogil=True)
 def decode_channel(inp, c, s, k, g, s_p, s_c, s_v, levels, base_band, layout):
-    """The inverse of encode_channel (``layout`` 2, 3 or 4), checking as it goes.
+    """The inverse of encode_channel for layouts 2, 3 and 4, checking as it goes (layout 5:
+    decode_contours, decode_part and decode_caps, which its parts need apart).
 
     Returns (status, where, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy,
     cap_value): q is (3 S + C, 2) int64 in 1/64 px with every chain closed; cap_xy and
     cap_value in 1/64 units. ``status`` is OK or an E_* code, ``where`` the entry it concerns.
     """
+    status, where, what, level, nseg, parent, ds, probs = decode_contours(inp, c, s, levels.shape[0])
+    q = np.zeros((3 * s + c, 2), np.int64)
+    border = np.zeros(s, np.uint8)
+    first = np.zeros(c, np.int64)  # each contour's P0 in q
+    if status == OK:
+        status, where, what = _dec_points(ds, inp, probs, nseg, q, border, first, g, s_p, layout)
+    cap_contour, cap_band, cap_xy, cap_value = new_caps(k)
+    if status == OK:
+        status, where, what = decode_caps(ds, inp, probs, level, q, first, s_c, s_v, levels, base_band,
+                                          cap_contour, cap_band, cap_xy, cap_value)
+    return (status, where, what, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy, cap_value)
+
+
+@njit(cache=True, nogil=True)
+def decode_contours(inp, c, s, n_levels):
+    """A channel's contour table from the start of its stream: (status, where, what, level,
+    nseg, parent, ds, probs), ds and probs the stream's state after it."""
     probs = new_probs_kernel()
     ds = _dec_init(inp)
     level = np.zeros(c, np.int64)
     nseg = np.zeros(c, np.int64)
     parent = np.zeros(c, np.int64)
-    q = np.zeros((3 * s + c, 2), np.int64)
-    border = np.zeros(s, np.uint8)
-    cap_contour = np.zeros(k, np.int64)
-    cap_band = np.zeros(k, np.int64)
-    cap_xy = np.zeros((k, 2), np.int64)
-    cap_value = np.zeros(k, np.int64)
-    first = np.zeros(c, np.int64)  # each contour's P0 in q
-    status, where, what = _dec_contours(ds, inp, probs, s, levels.shape[0], level, nseg, parent)
-    if status == OK:
-        status, where, what = _dec_points(ds, inp, probs, nseg, q, border, first, g, s_p, layout)
-    if status == OK:
-        status, where, what = _dec_caps(ds, inp, probs, level, q, first, s_c, s_v, levels, base_band,
-                                        cap_contour, cap_band, cap_xy, cap_value)
+    status, where, what = _dec_contours(ds, inp, probs, s, n_levels, level, nseg, parent)
+    return status, where, what, level, nseg, parent, ds, probs
+
+
+@njit(cache=True, nogil=True)
+def new_caps(k):
+    return np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros((k, 2), np.int64), np.zeros(k, np.int64)
+
+
+@njit(cache=True, nogil=True)
+def decode_caps(ds, inp, probs, level, q, first, s_c, s_v, levels, base_band, cap_contour, cap_band, cap_xy,
+                cap_value):
+    """The caps after the points (q in 1/64 px), then the stream's end: (status, where, what)."""
+    status, where, what = _dec_caps(ds, inp, probs, level, q, first, s_c, s_v, levels, base_band,
+                                    cap_contour, cap_band, cap_xy, cap_value)
     if status == OK:
         status = _dec_status(ds, inp)
-    return (status, where, what, level, nseg, parent, q, border, cap_contour, cap_band, cap_xy, cap_value)
+    return status, where, what
+
+
+@njit(cache=True, nogil=True)
+def start_part(inp):
+    """A part's own stream (layout 5): its decoder state and fresh probabilities."""
+    return _dec_init(inp), new_probs_kernel()
+
+
+@njit(cache=True, nogil=True)
+def end_part(ds, inp):
+    """OK where a part's stream ended exactly, else E_SHORT or E_LONG."""
+    return _dec_status(ds, inp)

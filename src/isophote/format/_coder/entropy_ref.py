@@ -17,6 +17,23 @@ NB = 12
 PATH_MAX = 32
 LIMIT = 1 << 30
 MAX_HANDLE_SHIFT = 5
+PART_SEGMENTS = 1 << 18  # version 5: the points in parts of at least this many segments
+
+
+def part_starts(nseg, part_segments):
+    """Version 5: the first contour of each part of the points, then C. A part ends after the
+    contour that brings it to part_segments segments or more."""
+    starts, acc = [0], 0
+    for k, n in enumerate(nseg):
+        acc += n
+        if acc >= part_segments and k + 1 < len(nseg):
+            starts.append(k + 1)
+            acc = 0
+    return starts + [len(nseg)]
+
+
+def u32(v: int) -> bytes:
+    return v.to_bytes(4, "little")
 
 
 class Models:
@@ -157,7 +174,8 @@ def get_coord(dec, model_fine, model_coarse, on, old, g):
 def encode_channel(ch: dict) -> bytes:
     """ch: level, nseg, parent, chains (per contour, its 3 n stored points on the point grid),
     border (per segment), g, cap_contour, cap_band, cap_xy (cap grid), cap_value (value grid),
-    s_p, s_c, s_v, levels, base_band; and ``version`` (2, 3 or 4, default 4): whose layout.
+    s_p, s_c, s_v, levels, base_band; and ``version`` (2 to 5, default 4): whose layout
+    (``part_segments``: version 5's parts, PART_SEGMENTS by default).
 
     It codes whatever it is given, lies included (segment counts that do not fit the chains,
     levels or cap contours out of range: (0, 0) and 0 stand in for what does not exist), so
@@ -182,10 +200,17 @@ def encode_channel(ch: dict) -> bytes:
             mo.int("level abs").put(enc, level[k] - (level[k - 1] if k else 0))
         mo.int("nseg").put_uint(enc, ch["nseg"][k] - 1)
 
+    # version 5: a part after the first starts a stream of its own, fresh models, P0 after (0, 0)
+    main, mo_main, parts = enc, mo, []
+    starts = part_starts(ch["nseg"], ch.get("part_segments", PART_SEGMENTS)) if version >= 5 else [0, c]
     prev0 = (0, 0)
     prev_h = 0
     s0 = 0
     for k in range(c):
+        if k in starts[1:-1]:
+            if enc is not main:
+                parts.append(enc.finish())
+            enc, mo, prev0, prev_h = Encoder(), Models(), (0, 0), 0
         chain, n = ch["chains"][k], ch["nseg"][k]
 
         def pts(i, chain=chain):
@@ -224,6 +249,9 @@ def encode_channel(ch: dict) -> bytes:
                 prev_h = sh
         s0 += n
 
+    if enc is not main:
+        parts.append(enc.finish())
+        enc, mo = main, mo_main
     s_p, s_c, s_v = ch["s_p"], ch["s_c"], ch["s_v"]
     prev_cc = -1
     for i, cc in enumerate(ch["cap_contour"]):
@@ -244,16 +272,33 @@ def encode_channel(ch: dict) -> bytes:
         mo.int("cap xy", 0).put(enc, ch["cap_xy"][i][0] - ((ox + half) >> s_c))
         mo.int("cap xy", 1).put(enc, ch["cap_xy"][i][1] - ((oy + half) >> s_c))
         mo.int("cap value", ctx).put(enc, ch["cap_value"][i] - vpred)
-    return enc.finish()
+    if version < 5:
+        return enc.finish()
+    return enc.finish() + b"".join(parts) + b"".join(u32(len(b)) for b in parts) + u32(len(parts))
 
 
 class Invalid(Exception):
     """A decoded value breaks a rule; args: (what, entry)."""
 
 
-def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, version=4) -> dict:
+def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, version=4,
+                   part_segments=PART_SEGMENTS) -> dict:
     """The inverse of encode_channel: a dict of lists, points in 1/64 px as (x, y) tuples per
     contour with the closing point, caps in 1/64 units. Raises Invalid for a broken rule."""
+    parts = []
+    if version >= 5:  # the stream, its parts of points, their sizes, their count
+        n = len(data)
+        count = int.from_bytes(data[n - 4:], "little") if n >= 4 else -1
+        end = n - 4 - 4 * count
+        if count < 0 or count > max(c - 1, 0) or end < 0:
+            raise Invalid("parts", 0)
+        sizes = [int.from_bytes(data[end + 4 * i:end + 4 * i + 4], "little") for i in range(count)]
+        if sum(sizes) > end:
+            raise Invalid("parts", 0)
+        for size in reversed(sizes):
+            parts.insert(0, data[end - size:end])
+            end -= size
+        data = data[:end]
     dec, mo = Decoder(data), Models()
     level, nseg, parent = [], [], []
     prev_rank = total = 0
@@ -287,9 +332,18 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, ve
 
     lim = LIMIT >> s_p
     chains, border = [], []
+    main, mo_main = dec, mo
+    starts = part_starts(nseg, part_segments) if version >= 5 else [0, c]
+    if len(starts) - 2 != len(parts):
+        raise Invalid("parts", len(parts))
     prev0 = (0, 0)
     prev_h = 0
     for j in range(c):
+        if j in starts[1:-1]:
+            if dec is not main and dec.status() != "ok":
+                raise Invalid(dec.status(), j)
+            dec, mo = Decoder(parts[starts.index(j) - 1]), Models()
+            prev0, prev_h = (0, 0), 0
         n = nseg[j]
         f = get_flag4(dec, mo, 4) if g else 0
         x0 = get_coord(dec, mo.int("p0", 0), mo.int("p0 coarse", 0), f & 1, prev0[0], g)
@@ -332,6 +386,10 @@ def decode_channel(data: bytes, c, s, k, g, s_p, s_c, s_v, levels, base_band, ve
             ax, ay = nx, ny
         chains.append([(x << s_p, y << s_p) for x, y in pts])
 
+    if dec is not main:
+        if dec.status() != "ok":
+            raise Invalid(dec.status(), c)
+        dec, mo = main, mo_main
     cap_contour, cap_band, cap_xy, cap_value = [], [], [], []
     prev_cc = -1
     half = (1 << s_c) >> 1

@@ -18,7 +18,7 @@ Where each section of docs/format.md lives:
     Validation                 read.py (loads, load), header.py, format/validate.py
     Limits, and why            format/limits.py
 
-This module writes version 4 and reads versions 1 to 4.
+This module writes version 5 and reads versions 1 to 5.
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ def anchor_shift(anchors: np.ndarray) -> int:
 
 
 def range_channel(ch: Checked, version: int = FORMAT_VERSION) -> bytes:
-    """One channel range-coded (compression 3) in ``version``'s layout (2, 3 or 4); sets its
+    """One channel range-coded (compression 3) in ``version``'s layout (2 to 5); sets its
     grids and coded size in ch.info."""
     info = ch.info
     pts = stored_points(ch)
@@ -69,7 +69,7 @@ def range_channel(ch: Checked, version: int = FORMAT_VERSION) -> bytes:
     coded, _ = entropy.encode_channel(
         ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), info.g,
         ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c), ch.vq >> info.s_v,
-        info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version, False,
+        info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version, False, entropy.PART_SEGMENTS,
     )
     info.coded_size = int(coded.shape[0])
     return coded.tobytes()
@@ -89,6 +89,7 @@ RANGE_ERRORS = {
     entropy.E_SHORT: "range-coded data ends early (truncated or corrupted)",
     entropy.E_LONG: "range-coded data has bytes left over (corrupted)",
     entropy.E_SHIFT: f"a handle shift in contour {{where}} is above {entropy.MAX_HANDLE_SHIFT}",
+    entropy.E_PARTS: "the table of its parts of points ({extra} after the first) fits neither its data nor its contours",
 }
 
 
@@ -96,9 +97,9 @@ def decode_range_channel(item):
     """One channel off its range-coded bytes: ``item`` is (ChannelInfo, bytes, version)."""
     info, data, version = item
     c, s, k = info.n_contours, info.n_segments, info.n_caps
+    decode = entropy.decode_channel if version < 5 else decode_parts
     (status, where, extra, level, nseg, parent, q, border, cap_contour, cap_band, cq, vq) = \
-        entropy.decode_channel(data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels,
-                               info.base_band, version)
+        decode(data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version)
     if status != entropy.OK:
         msg = RANGE_ERRORS[status].format(where=where, extra=extra, c=c, s=s, L=info.levels.shape[0])
         raise FormatError(f"channel {info.name}: {msg}")
@@ -106,3 +107,54 @@ def decode_range_channel(item):
     offsets = np.zeros(c + 1, np.int64)
     np.cumsum(3 * nseg + 1, out=offsets[1:])
     return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq)
+
+
+def decode_parts(data, c, s, k, g, s_p, s_c, s_v, levels, base_band, version, workers=None):
+    """entropy.decode_channel for layout 5 (uint8 data): the channel's stream (contours, the
+    points' first part, caps), its other parts of points, each its own stream, their sizes
+    (u32) and their count (u32) last. The parts are decoded side by side, in ``workers``
+    threads (None: the processors'); each writes its own rows of the points, so the result
+    does not depend on how many."""
+    n = data.shape[0]
+    count = int.from_bytes(data[n - 4:n].tobytes(), "little") if n >= 4 else -1
+    table = n - 4 - 4 * count
+    fits = 0 <= count <= max(c - 1, 0) and table >= 0
+    sizes = np.frombuffer(data[table:n - 4].tobytes(), "<u4").astype(np.int64) if fits else np.zeros(0, np.int64)
+    main_len = table - int(sizes.sum())
+    q = np.zeros((3 * s + c, 2), np.int64)
+    border = np.zeros(s, np.uint8)
+    caps = entropy.new_caps(k)
+    if not fits or main_len < 0:
+        return (entropy.E_PARTS, 0, count, np.zeros(c, np.int64), np.zeros(c, np.int64), np.zeros(c, np.int64), q,
+                border, *caps)
+    main = data[:main_len]
+    status, where, extra, level, nseg, parent, ds, probs = entropy.decode_contours(main, c, s, levels.shape[0])
+    starts = entropy.part_starts(nseg, entropy.PART_SEGMENTS)
+    if status == entropy.OK and starts.shape[0] - 2 != count:
+        status, where, extra = entropy.E_PARTS, starts.shape[0] - 1, count
+    if status != entropy.OK:
+        return (status, where, extra, level, nseg, parent, q, border, *caps)
+    first = np.zeros(c, np.int64)
+    ends = main_len + np.cumsum(sizes)
+
+    def part(p):
+        args = (nseg, q, border, first, int(starts[p]), int(starts[p + 1]), g, s_p, version)
+        if p == 0:  # the channel's own stream, after its contours
+            return entropy.decode_part(ds, main, probs, *args)
+        inp = data[ends[p - 1] - sizes[p - 1]:ends[p - 1]]
+        pds, pprobs = entropy.start_part(inp)
+        status, where, extra = entropy.decode_part(pds, inp, pprobs, *args)
+        return (entropy.end_part(pds, inp), starts[p + 1], 0) if status == entropy.OK else (status, where, extra)
+
+    workers = threads.available(count + 1) if workers is None else max(1, min(workers, count + 1))
+    if workers > 1:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            results = list(pool.map(part, range(count + 1)))
+    else:
+        results = [part(p) for p in range(count + 1)]
+    for status, where, extra in results:
+        if status != entropy.OK:
+            return (status, where, extra, level, nseg, parent, q, border, *caps)
+    entropy.shift_points(q, s_p)
+    status, where, extra = entropy.decode_caps(ds, main, probs, level, q, first, s_c, s_v, levels, base_band, *caps)
+    return (status, where, extra, level, nseg, parent, q, border, *caps)

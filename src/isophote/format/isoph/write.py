@@ -28,7 +28,7 @@ LZMA_WRITE_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": LZMA_PRESET, "dict_siz
 
 
 def dumps(vi: VectorImage, compression: str = DEFAULT_COMPRESSION) -> bytes:
-    """Serialise a VectorImage to .isoph bytes (format version 4).
+    """Serialise a VectorImage to .isoph bytes (format version 5).
 
     Parameters
     ----------
