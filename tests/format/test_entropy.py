@@ -372,6 +372,13 @@ def test_parts_code_as_the_spec_says_and_decode_in_any_number_of_threads(monkeyp
     fields = ref_fields(ch, info, 5)
     fields["part_segments"] = 6
     assert coded == R.encode_channel(fields)
+    # the writer's parts side by side (range_channel) are the one kernel's, part after part
+    pts = isoph_layout.stored_points(ch) >> info.s_p
+    seq, _ = E.encode_channel(ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8),
+                              info.g, ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c),
+                              ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 5,
+                              False, 6)
+    assert seq.tobytes() == coded
     parts = int.from_bytes(coded[-4:], "little") + 1
     assert parts == len(E.part_starts(ch.nseg, 6)) - 1 > 4
     args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v, info.levels,

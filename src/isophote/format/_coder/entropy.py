@@ -393,7 +393,8 @@ def _enc_caps(st, out, probs, level, nseg, pts, cap_contour, cap_band, cap_xy, c
 
 @njit(cache=True, nogil=True)
 def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, cap_xy, cap_value,
-                   s_p, s_c, s_v, levels, base_band, layout, account, part_segments=PART_SEGMENTS):
+                   s_p, s_c, s_v, levels, base_band, layout, account, part_segments=PART_SEGMENTS,
+                   main_only=False):
     """One channel's coded bytes (uint8 array), and the bits spent per model and flag slot
     (float64, N_MODELS + 18 entries; all 0 unless ``account``: it slows coding down).
 
@@ -407,6 +408,8 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     layout : 2 to 5, the format version whose predictions to use (3: chords after half the
         previous chord, handles in the chord's frame; 4: 3 and the handle shifts; 5: 4 with the
         points in parts of part_segments, part_starts).
+    main_only : layout 5, the channel's own stream alone (its other parts: encode_part, which
+        a writer may run side by side; rangecoded.range_channel).
     """
     probs = new_probs_kernel()
     st = np.zeros(5 + (1 + N_MODELS + 18 if account else 0), np.int64)
@@ -427,15 +430,10 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
         if p == 0:  # in the channel's own stream, after the contours
             out = _enc_points(st, out, probs, pts, border, nseg, starts[0], starts[1], t0, g, layout)
             continue
+        if main_only:
+            continue
         pst = np.zeros(st.shape[0], np.int64)
-        pst[1] = 0xFFFFFFFF
-        pst[3] = 1
-        if account:
-            pst[5] = F_BORDER
-        pout = np.empty(64 + 8 * (t0[starts[p + 1]] - t0[starts[p]]), np.uint8)
-        pout = _enc_points(pst, pout, new_probs_kernel(), pts, border, nseg, starts[p], starts[p + 1], t0, g, layout)
-        pout = _grow(pout, pst[4] + pst[3] + 16)
-        part = _finish(pst, pout)
+        part = encode_part(pst, pts, border, nseg, starts[p], starts[p + 1], t0, g, layout)
         sizes[p - 1] = part.shape[0]
         tail = _grow(tail, sizes[: p - 1].sum() + part.shape[0])  # doubling: linear in the parts' bytes
         tail[sizes[: p - 1].sum(): sizes[:p].sum()] = part
@@ -448,10 +446,25 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     if account:
         bits[:] = st[6:] / 1e6
     head = _finish(st, out)
-    if layout < 5:
+    if layout < 5 or main_only:
         return head, bits
     count = np.full(1, sizes.shape[0], np.int64)
     return np.concatenate((head, tail[: sizes.sum()], _u32_le(sizes), _u32_le(count))), bits
+
+
+@njit(cache=True, nogil=True)
+def encode_part(pst, pts, border, nseg, k0, k1, t0, g, layout):
+    """Contours k0 .. k1 - 1's points as a part of their own (layout 5): a fresh stream and
+    probabilities; pst (zeros, the channel stream's length: its accounting slots when
+    accounting) is left with the stream's state. t0: each contour's first stored point."""
+    pst[1] = 0xFFFFFFFF
+    pst[3] = 1
+    if pst.shape[0] > 5:
+        pst[5] = F_BORDER
+    pout = np.empty(64 + 8 * (t0[k1] - t0[k0]), np.uint8)
+    pout = _enc_points(pst, pout, new_probs_kernel(), pts, border, nseg, k0, k1, t0, g, layout)
+    pout = _grow(pout, pst[4] + pst[3] + 16)
+    return _finish(pst, pout)
 
 
 @njit(cache=True, nogil=True)

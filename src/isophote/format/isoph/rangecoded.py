@@ -66,13 +66,32 @@ def range_channel(ch: Checked, version: int = FORMAT_VERSION) -> bytes:
     info.s_v = grid_shift(ch.vq)
     pts = pts >> info.s_p
     info.g = anchor_shift(pts[0::3])
-    coded, _ = entropy.encode_channel(
-        ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), info.g,
-        ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c), ch.vq >> info.s_v,
-        info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version, False, entropy.PART_SEGMENTS,
-    )
-    info.coded_size = int(coded.shape[0])
-    return coded.tobytes()
+    pts, border = np.ascontiguousarray(pts), ch.border.astype(np.uint8)
+    starts = entropy.part_starts(ch.nseg, entropy.PART_SEGMENTS if version >= 5 else 0)
+    t0 = np.zeros(ch.nseg.shape[0] + 1, np.int64)  # each contour's first stored point
+    np.cumsum(3 * ch.nseg, out=t0[1:])
+
+    def part(p):  # p = 0: the channel's own stream (contours, the first part, caps)
+        if p == 0:
+            return entropy.encode_channel(
+                ch.level, ch.nseg, ch.parent, pts, border, info.g, ch.cap_contour, ch.cap_band,
+                np.ascontiguousarray(ch.cq >> info.s_c), ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v,
+                info.levels, info.base_band, version, False, entropy.PART_SEGMENTS, True)[0]
+        return entropy.encode_part(np.zeros(5, np.int64), pts, border, ch.nseg, starts[p], starts[p + 1], t0,
+                                   info.g, version)
+
+    n = starts.shape[0] - 1
+    if n > 1 and threads.available() > 1:  # the parts are independent streams: side by side
+        with ThreadPoolExecutor(max_workers=threads.available(n)) as pool:
+            parts = list(pool.map(part, range(n)))
+    else:
+        parts = [part(p) for p in range(n)]
+    coded = parts[0].tobytes()
+    if version >= 5:
+        coded += b"".join(p.tobytes() for p in parts[1:])
+        coded += b"".join(len(p).to_bytes(4, "little") for p in parts[1:]) + (n - 1).to_bytes(4, "little")
+    info.coded_size = len(coded)
+    return coded
 
 
 # What each decoder status means: (message template, with {where} and {extra}).
