@@ -87,3 +87,23 @@ def test_same_bytes_with_one_thread(tmp_path, monkeypatch):
     assert pools[1] and set(pools[1]) == {1}
     assert blobs[0] == blobs[1]
     assert all(np.array_equal(a, b) for a, b in zip(*renders))
+
+
+def test_pool_calls_run_in_the_callers_context():
+    """A context variable set around an operation (render/blocks.one_window) reaches the
+    stages' worker threads, and a call's own changes stay in its copy."""
+    import contextvars
+
+    var = contextvars.ContextVar("setting", default=0)
+    token = var.set(7)
+    try:
+        def read_and_change(_):
+            seen = var.get()
+            var.set(-1)  # in the call's copy of the context only
+            return seen
+
+        with threads.pool(2) as pool:
+            assert list(pool.map(read_and_change, range(6))) == [7] * 6
+        assert var.get() == 7
+    finally:
+        var.reset(token)

@@ -13,6 +13,7 @@ they are not the caller's thread.
 
 from __future__ import annotations
 
+import contextvars
 import os
 import threading
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
@@ -75,10 +76,20 @@ class _InCaller(Executor):
         return f
 
 
+class _InContext(ThreadPoolExecutor):
+    """A ThreadPoolExecutor whose calls run in a copy of the submitting thread's context
+    (contextvars), as they would in the caller's thread: a setting made for the duration of
+    an operation (render/blocks.one_window) reaches the stages' worker threads."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        return super().submit(contextvars.copy_context().run, fn, *args, **kwargs)
+
+
 def pool(n: int):
-    """An executor of ``n`` threads: a ThreadPoolExecutor; where the process may use one
-    thread (a limit, or one processor), the caller's own (calls run at once, in submission
-    order; same results). A stage that merely chose one thread keeps its pool thread:
-    memory peaks differ between glibc's main heap and a thread's arena, and the encoder's
-    budget (tests/encoder/test_encode_budget.py) was measured on the latter."""
-    return ThreadPoolExecutor(max_workers=n) if n > 1 or available() > 1 else _InCaller()
+    """An executor of ``n`` threads: a ThreadPoolExecutor (calls in the caller's context);
+    where the process may use one thread (a limit, or one processor), the caller's own
+    (calls run at once, in submission order; same results). A stage that merely chose one
+    thread keeps its pool thread: memory peaks differ between glibc's main heap and a
+    thread's arena, and the encoder's budget (tests/encoder/test_encode_budget.py) was
+    measured on the latter."""
+    return _InContext(max_workers=n) if n > 1 or available() > 1 else _InCaller()

@@ -157,6 +157,28 @@ def test_domes_let_the_curve_spread_a_plateau():
     assert info["measured"]["empty"] == 0 and info["measured"]["ks"] < 0.01 and info["measured"]["entropy"] > 7.95
 
 
+def test_equaliser_measures_one_window_fields_where_renders_would_block(monkeypatch):
+    """The curve is learnt from renders of the equalised channel (domes, whose fill blocks
+    approximate): with every level cut into small blocks, as a big master's are, the
+    measured values are still the one-window render's (render/blocks.one_window), and
+    blocks would have changed them."""
+    from isophote.render import blocks
+
+    h = w = 128
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    img = 20 + 0.8 * xx + 0.45 * yy
+    img[np.hypot(xx - 60.4, yy - 67.4) < 32.4] = 230.0  # a dome over several 32-node blocks
+    vi = isophote.encode(np.clip(img, 0, 255))
+    eq = E.equalise(vi, refine_render=False).channel("Y")
+    whole = E.measure_values(eq, w, h)
+    monkeypatch.setattr(blocks, "SINGLE_NODES", 0)
+    monkeypatch.setattr(blocks, "BLOCK", 32)
+    monkeypatch.setattr(blocks, "MARGIN", 8)
+    assert np.array_equal(E.measure_values(eq, w, h), whole)
+    monkeypatch.setattr(E, "MEASURE_WINDOW_NODES", 0)  # as before: the blocked renders
+    assert not np.array_equal(E.measure_values(eq, w, h), whole)
+
+
 def test_warp_keeps_the_tone_curve(vi):
     """An equalised image warped: the contours move, the tone curve travels with them, so the
     identity warp renders exactly as before."""

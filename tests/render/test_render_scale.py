@@ -474,3 +474,15 @@ def test_blocked_labels_runs_or_dense_same_bytes(vi, forced_blocks, monkeypatch)
     monkeypatch.setattr(blocks, "MAX_RUNS", 0.0)  # every level keeps its labels whole
     dense = vi.render(scale=1, crop=(13, 7, 40, 30))
     assert made and all(made) and np.array_equal(dense, runs)
+
+
+def test_one_window_renders_a_blocked_level_whole(vi, monkeypatch):
+    """Within blocks.one_window a level that would be blocked is one window, in every thread
+    the render uses: the one-window render itself; outside it, blocks again."""
+    whole = vi.render(scale=2)
+    _force_blocks(monkeypatch, 8)
+    blocked = vi.render(scale=2)
+    assert not np.array_equal(blocked, whole)
+    with blocks.one_window(10**9):
+        assert np.array_equal(vi.render(scale=2), whole)
+    assert np.array_equal(vi.render(scale=2), blocked)

@@ -206,6 +206,12 @@ MEASURE_WEIGHTS = (2.0, 1.0)  # their weights in the pool: the native size first
 # 1280 x 800 photographs were measured at 0.988x, off the 1x sample grid: Kite's Y at 1x
 # KS 0.0019, measured at 1x 0.0010 (issue 26).
 MEASURE_PIXELS = 2_100_000
+# The measured renders are one window up to this many nodes (render/blocks.one_window: every
+# 2x render of MEASURE_PIXELS, about 1 GB while it is made): a blocked 2x render's domes
+# (this channel's caps) are a level or so off the one-window render near block borders, and
+# the curve learnt from them left ColdRipple's equalised 1x at KS 0.0064 against 0.0042
+# (benchmarks/results/quality_wide_balanced.md; the other wide photos the same to 4 digits).
+MEASURE_WINDOW_NODES = 4 * MEASURE_PIXELS + 100_000  # the 2x render's nodes, and room for its sides' rounding
 ATOM = 1.0 / 256.0  # a single value holding this share of the image (a bin) is an atom
 STRETCH_MAX = 32.0  # the most the values beside an atom are spread thinner than uniform
 KNOT_STEP = 0.5  # grey levels of output between the knots of the dense curve
@@ -228,9 +234,12 @@ def measure_values(channel: Channel, width: int, height: int) -> np.ndarray:
     applied): the point samples of its renders at MEASURE_SCALES (smaller for images of
     more than MEASURE_PIXELS pixels), each render repeated so that it weighs its
     MEASURE_WEIGHTS share."""
+    from ..render.blocks import one_window
+
     reduce = min(1.0, float(np.sqrt(MEASURE_PIXELS / (float(width) * float(height)))))
     plain = replace(channel, tone=None)
-    parts = [_render_channel(plain, width, height, s * reduce).ravel() for s in MEASURE_SCALES]
+    with one_window(MEASURE_WINDOW_NODES):  # the fields blocks approximate: a dome is measured whole
+        parts = [_render_channel(plain, width, height, s * reduce).ravel() for s in MEASURE_SCALES]
     most, least = max(p.size for p in parts), min(MEASURE_WEIGHTS)
     return np.concatenate([np.repeat(p, max(1, round(w * most / (least * p.size))))
                            for p, w in zip(parts, MEASURE_WEIGHTS)])

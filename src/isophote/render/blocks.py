@@ -35,7 +35,9 @@ short of the true largest distance).
 
 from __future__ import annotations
 
+import contextvars
 import threading
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,6 +126,20 @@ class Level:
 
 
 SINGLE_SEGMENTS = 600_000  # a channel with more segments is flattened a window at a time
+_WINDOW_NODES = contextvars.ContextVar("window_nodes", default=0)
+
+
+@contextmanager
+def one_window(max_nodes: int):
+    """Within the block (this thread and context), a level of up to ``max_nodes`` luma nodes
+    is one window, the fields that a blocked level approximates, whatever SINGLE_NODES says:
+    for a caller that measures the fill itself (apply/equalise.py) and can afford
+    max_nodes * WINDOW_PEAK_BYTES while it renders."""
+    token = _WINDOW_NODES.set(int(max_nodes))
+    try:
+        yield
+    finally:
+        _WINDOW_NODES.reset(token)
 
 
 def make_level(vi, r: float, zoom: float, n_segments: int = 0, fraction: float = 1.0) -> Level:
@@ -135,7 +151,7 @@ def make_level(vi, r: float, zoom: float, n_segments: int = 0, fraction: float =
     a tile's chroma is blocked as its luma is."""
     nr, nc = int(np.ceil(vi.height * r - 1e-9)), int(np.ceil(vi.width * r - 1e-9))
     luma_nodes = int(np.ceil(vi.height * r / fraction - 1e-9)) * int(np.ceil(vi.width * r / fraction - 1e-9))
-    if luma_nodes <= SINGLE_NODES and n_segments <= SINGLE_SEGMENTS:
+    if luma_nodes <= max(SINGLE_NODES, _WINDOW_NODES.get()) and n_segments <= SINGLE_SEGMENTS:
         return Level(r, nr, nc, 0)
     return Level(r, nr, nc, block_size(zoom / r), MARGIN)
 
