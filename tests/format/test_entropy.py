@@ -432,3 +432,18 @@ def test_mutated_parts_decode_alike(monkeypatch, seed):
         verdicts.add(name)
         assert name == ref, (at, len(bad))
     assert "parts" in verdicts and len(verdicts) > 2, verdicts
+
+
+def test_accounting_codes_the_same_bytes_and_counts_them():
+    """encode_channel's accounting (the coding study's bits per model) changes no byte, and
+    the bits it counts add up to the stream's length."""
+    vi = isophote.encode(np.clip(128 + 90 * np.sin(np.add.outer(np.arange(24) / 3.0, np.arange(28) / 4.0)), 0, 255))
+    ch = isoph_write.checked_channel(vi.channels[0])
+    coded = isoph_range.range_channel(ch, 4)
+    info = ch.info
+    pts = isoph_layout.stored_points(ch) >> info.s_p
+    out, bits = E.encode_channel(ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8),
+                                 info.g, ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c),
+                                 ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 4, True)
+    assert out.tobytes() == coded
+    assert abs(bits.sum() - 8 * len(coded)) < 0.02 * 8 * len(coded) + 40

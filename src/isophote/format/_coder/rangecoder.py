@@ -82,18 +82,34 @@ def _enc_bit(st, out, probs, slot, bit):
         n_ms = st[5]  # the slots of the integer models, before the flags' (encode_channel)
         i = slot // MODEL_SLOTS if slot < n_ms else n_ms // MODEL_SLOTS + slot - n_ms
         st[6 + i] += np.int64(-1e6 * np.log2(p0 if bit == 0 else 1.0 - p0))
+    low = st[0]
     if bit == 0:
         rng = bound
         probs[2 * slot] = a + ((PROB_ONE - a) >> RATE_FAST)
         probs[2 * slot + 1] = b + ((PROB_ONE - b) >> RATE_SLOW)
     else:
-        st[0] += bound
+        low += bound
         rng -= bound
         probs[2 * slot] = a - (a >> RATE_FAST)
         probs[2 * slot + 1] = b - (b >> RATE_SLOW)
+    # _shift_low written out, low kept in a local: with the call here the coder codes a bit
+    # 6-8 x slower than the decoder reads one (27 against 3.5 ns; numba inlines neither)
     while rng < TOP:
         rng <<= 8
-        _shift_low(st, out)
+        if low < 0xFF000000 or low >= (1 << 32):
+            carry = low >> 32
+            temp = st[2]
+            while True:
+                out[st[4]] = (temp + carry) & 0xFF
+                st[4] += 1
+                temp = 0xFF
+                st[3] -= 1
+                if st[3] == 0:
+                    break
+            st[2] = (low >> 24) & 0xFF
+        st[3] += 1
+        low = (low & 0x00FFFFFF) << 8
+    st[0] = low
     st[1] = rng
 
 
