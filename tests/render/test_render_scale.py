@@ -486,3 +486,46 @@ def test_one_window_renders_a_blocked_level_whole(vi, monkeypatch):
     with blocks.one_window(10**9):
         assert np.array_equal(vi.render(scale=2), whole)
     assert np.array_equal(vi.render(scale=2), blocked)
+
+
+def test_channels_in_turn_give_the_same_pixels(vi, monkeypatch):
+    """Where one-window fields would add up past ONE_WINDOW_BYTES the channels run one after
+    another: the same pixels as side by side, for an RGB and an RGBA master, at and below
+    and above 1x, in every depth."""
+    import isophote.render as R
+
+    yy, xx = np.mgrid[0:40, 0:56]
+    rgba = np.dstack([100 + 60 * np.sin(xx / 5.0), 120 + 50 * np.cos(yy / 4.0), 90 + xx * 2.0,
+                      np.clip(128 + 120 * np.sin(xx / 9.0 + yy / 7.0), 0, 255)])
+    alpha = isophote.encode(np.clip(rgba, 0, 255).astype(np.uint8), preset="paper")
+    cases = [(v, dict(scale=sc, depth=d)) for v in (vi, alpha) for sc in (0.5, 1, 2.5) for d in (8, 16)]
+    side_by_side = [v.render(**kw) for v, kw in cases]
+    turns = []
+    real = R._render_channels_in_turn
+
+    def counted(*args):
+        turns.append(1)
+        return real(*args)
+
+    monkeypatch.setattr(R, "_render_channels_in_turn", counted)
+    monkeypatch.setattr(R, "ONE_WINDOW_BYTES", 0)
+    for (v, kw), want in zip(cases, side_by_side):
+        assert np.array_equal(v.render(**kw), want), kw
+    assert len(turns) == len(cases)
+
+
+def test_channels_run_in_turn_only_where_their_fields_are_large():
+    from isophote.render import ONE_WINDOW_BYTES, Viewport, one_channel_at_a_time
+    from isophote.render.blocks import WINDOW_BYTES, Level
+
+    n = ONE_WINDOW_BYTES // WINDOW_BYTES // 3 + 1000  # three of these are over the bound
+    side = int(np.sqrt(n)) + 1
+    big, small = Level(1.0, side, side, 0), Level(1.0, 100, 100, 0)
+    vp = Viewport(side, side, 1, 1.0, 1.0, 0, 0, 0.0, 0.0)
+    assert one_channel_at_a_time(vp, [big, big, big])
+    assert not one_channel_at_a_time(vp, [big, big])  # within the bound
+    assert not one_channel_at_a_time(vp, [small, small, small])
+    assert not one_channel_at_a_time(vp, [big])  # nothing to take turns with
+    assert not one_channel_at_a_time(vp, [Level(1.0, side, side, 256, 16)] * 3)  # blocks bound themselves
+    wide = Viewport(20 * side, 20 * side, 1, 20.0, 20.0, 0, 0, 0.0, 0.0)
+    assert not one_channel_at_a_time(wide, [big, big, big])  # its rows would take more than the fields

@@ -31,7 +31,7 @@ from ..errors import LimitError
 from ..options import RenderOptions, make
 from ..geometry import segment_starts
 from ..shared.heap import return_freed_memory
-from .blocks import CANVAS_LOCK, ChannelLevel, make_level, split
+from .blocks import CANVAS_LOCK, WINDOW_BYTES, ChannelLevel, make_level, split
 from .levels import auto_supersample, level_r
 from .prepare import prepared
 from .sharpen import gains
@@ -154,6 +154,28 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
             if progress is not None:
                 progress(r1 / vp.out_h)
         return out
+    def setup(ch):
+        cl, cache = channel_state(vi, ch, vp, opts, prep)
+        xs, ys = sample_positions(vp, cl.level.r)
+        cuts_ch = cuts if cl.level.block else None
+        last = {}
+        if cl.level.block:
+            nbr = cl.level.blocks()[0]
+            for r0, r1 in cuts:
+                for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
+                    last[bi] = r1
+        del cuts_ch
+        windings = buckets = None
+        if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
+            # a crop of a prepared master: its strips read the canvas's row windings left of it
+            windings = prepared_windings(vi, ch, cl, vp, prep)
+        elif prep is not None and not cl.level.block:
+            # and on a one-window level the edges of its own sample rows, from the canvas's buckets
+            buckets = prepared_buckets(vi, ch, cl, vp, prep)
+        return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings, buckets), xs, ys, last
+
+    if prep is None and one_channel_at_a_time(vp, [lv for lv, _ in states.values()]):
+        return _render_channels_in_turn(vi, vp, out, names, cuts, setup, flat, tones, depth, progress)
     lock = threading.Lock()
     held = {}  # first row of a strip -> the planes of it filled so far
     done = [0]
@@ -164,26 +186,6 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
     workers = threads.available(workers)
     ready = {}
     with threads.pool(workers) as pool:
-        def setup(ch):
-            cl, cache = channel_state(vi, ch, vp, opts, prep)
-            xs, ys = sample_positions(vp, cl.level.r)
-            cuts_ch = cuts if cl.level.block else None
-            last = {}
-            if cl.level.block:
-                nbr = cl.level.blocks()[0]
-                for r0, r1 in cuts:
-                    for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
-                        last[bi] = r1
-            del cuts_ch
-            windings = buckets = None
-            if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
-                # a crop of a prepared master: its strips read the canvas's row windings left of it
-                windings = prepared_windings(vi, ch, cl, vp, prep)
-            elif prep is not None and not cl.level.block:
-                # and on a one-window level the edges of its own sample rows, from the canvas's buckets
-                buckets = prepared_buckets(vi, ch, cl, vp, prep)
-            return cache, SampleEdges(cl, vp, vp.out_h * vp.s, windings, buckets), xs, ys, last
-
         ready = {ch.name: pool.submit(setup, ch) for ch in vi.channels}
 
         def fill(name, r0, r1):
@@ -205,6 +207,48 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
 
         for f in [pool.submit(fill, name, r0, r1) for r0, r1 in cuts for name in names]:
             f.result()
+    return out
+
+
+# One-window levels hold their fields whole for the render (WINDOW_BYTES a node), every
+# channel's at once when the channels run side by side: a 2.5 MP RGBA master at 1x peaked at
+# 1,078 MB, its RGB twin at 933. Above this many bytes of them, channels whose samples take
+# less room than their fields run one after another (the RGBA master 559 MB, but 1.4 x the
+# time: a one-window field is computed on one thread); every RGB level, the corpus photos'
+# 3x among them (510 MB), still runs its channels side by side (results/render_scale.md).
+ONE_WINDOW_BYTES = 576 * 2**20
+
+
+def one_channel_at_a_time(vp: Viewport, levels) -> bool:
+    """Whether a render's channels run in turn: their levels are one window each, and their
+    fields together exceed ONE_WINDOW_BYTES while the output rows of all but one of them
+    (float32, kept until the last channel is done) are smaller than the fields that saves."""
+    if len(levels) < 2 or any(lv.block for lv in levels):
+        return False
+    fields = [lv.nodes * WINDOW_BYTES for lv in levels]
+    kept = (len(levels) - 1) * vp.out_w * vp.out_h * 4
+    return sum(fields) > ONE_WINDOW_BYTES and kept < sum(fields) - max(fields)
+
+
+def _render_channels_in_turn(vi, vp, out, names, cuts, setup, flat, tones, depth, progress):
+    """_render's strips channel after channel: each channel's fields are computed, its rows
+    filled and kept (float32), and its fields let go before the next; then the rows are
+    converted. The same pixels as the channels side by side (a sample depends on its channel
+    alone), the fields of one channel held at a time."""
+    rows = {}
+    for k, ch in enumerate(vi.channels):
+        cache, sedges, xs, ys, last = setup(ch)
+        rows[ch.name] = [fill_rows(cache, sedges, vp, xs, ys, r0, r1, flat, tones[ch.name], last)
+                         for r0, r1 in cuts]
+        del cache, sedges
+        if progress is not None:
+            progress((k + 1) / (len(names) + 1))
+    for i, (r0, r1) in enumerate(cuts):
+        out[r0:r1] = _convert(vi, {name: rows[name][i] for name in names}, depth)
+        for name in names:
+            rows[name][i] = None
+    if progress is not None:
+        progress(1.0)
     return out
 
 
