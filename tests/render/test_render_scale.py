@@ -492,8 +492,12 @@ def test_channels_in_turn_give_the_same_pixels(vi, monkeypatch):
     """Where one-window fields would add up past ONE_WINDOW_BYTES the channels run one after
     another: the same pixels as side by side, for an RGB and an RGBA master, at and below
     and above 1x, in every depth."""
-    import isophote.render as R
+    import weakref
 
+    import isophote.render as R
+    from isophote.render import prepare
+
+    monkeypatch.setattr(prepare, "_PREPARED", weakref.WeakKeyDictionary())  # a prepared master keeps its fields
     yy, xx = np.mgrid[0:40, 0:56]
     rgba = np.dstack([100 + 60 * np.sin(xx / 5.0), 120 + 50 * np.cos(yy / 4.0), 90 + xx * 2.0,
                       np.clip(128 + 120 * np.sin(xx / 9.0 + yy / 7.0), 0, 255)])
