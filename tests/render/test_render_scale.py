@@ -533,3 +533,27 @@ def test_channels_run_in_turn_only_where_their_fields_are_large():
     assert not one_channel_at_a_time(vp, [Level(1.0, side, side, 256, 16)] * 3)  # blocks bound themselves
     wide = Viewport(20 * side, 20 * side, 1, 20.0, 20.0, 0, 0, 0.0, 0.0)
     assert not one_channel_at_a_time(wide, [big, big, big])  # its rows would take more than the fields
+
+
+def test_a_preparation_holds_its_block_fields_within_one_budget(vi, forced_blocks):
+    """Every channel's and zoom's block fields of a preparation share field_bytes (least
+    recently used out first, whichever cache holds it), and its tiles still equal renders."""
+    from isophote.render.blocks import WINDOW_BYTES
+    from isophote.render.tiles import Tiler
+
+    fresh = dataclasses.replace(vi)
+    window = (32 + 2 * 8) ** 2 * WINDOW_BYTES  # a 32-node block and its margins (forced_blocks)
+    budget = 5 * window
+    t = Tiler(fresh, zooms=(1.0, 2.0, 3.0), field_bytes=budget)
+    prep = t.preparation
+    most = 0
+    for z in (1.0, 2.0, 3.0):
+        for (x, y) in [(0, 0), (40, 24), (64, 40), (8, 36)]:
+            w = 32 / z
+            tile = t.tile(x, y, w, w, 32, 32)
+            assert np.array_equal(tile, dataclasses.replace(vi).render(crop=(x, y, w, w), width=32, height=32))
+            held = sum(c.bytes for k, c in prep.caches.items() if not (isinstance(k, tuple) and k[0] == "lock"))
+            assert held == prep.budget.bytes <= budget
+            most = max(most, held)
+    caches = [c for k, c in prep.caches.items() if not (isinstance(k, tuple) and k[0] == "lock")]
+    assert len(caches) >= 6 and most > budget // 2  # three zooms of each channel, sharing one budget

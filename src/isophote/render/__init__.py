@@ -281,7 +281,7 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
         return cl, BlockCache(cl, opts.distance, smooth, gain, 1 << 62)
     cl = prep.get(prep.levels, (ch.name, tol, level, rows), make_level_state)
     cache = prep.get(prep.caches, (ch.name, tol, level, opts.distance, smooth, gain),
-                     lambda: BlockCache(cl, opts.distance, smooth, gain, prep.field_bytes // max(1, len(vi.channels))))
+                     lambda: BlockCache(cl, opts.distance, smooth, gain, prep.field_bytes, prep.budget))
     return cl, cache
 
 

@@ -27,8 +27,9 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
   its samples and the box filter (the same bytes, a crop being the same region of the full
   render). Making one costs the level's block fields once (let go after) and the samples of
   the whole reduction at that lattice;
-- the block fields, least recently used first out, within ``field_bytes`` for each zoom
-  (field_bytes / channels a channel; WINDOW_BYTES a node of a window).
+- the block fields, least recently used first out, within ``field_bytes`` for every channel
+  and zoom together (strips.FieldBudget; WINDOW_BYTES a node of a window). Until 2026-12 it
+  was field_bytes a zoom: a 4 MP master served at its nine zooms peaked at 2.4 GB.
 Which zooms are prepared at once is the caller's choice (default 1x); the others are
 prepared by the first tile that needs them, without the planes.
 """
@@ -38,6 +39,8 @@ from __future__ import annotations
 import threading
 import weakref
 
+from .strips import FieldBudget
+
 _PREPARED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 FIELD_BYTES = 384 * 2**20  # block fields kept by a preparation, all channels and levels
 
@@ -45,6 +48,7 @@ FIELD_BYTES = 384 * 2**20  # block fields kept by a preparation, all channels an
 class Preparation:
     def __init__(self, field_bytes: int = FIELD_BYTES):
         self.field_bytes = field_bytes
+        self.budget = FieldBudget(field_bytes)  # every channel's and zoom's block fields together
         self.edges, self.levels, self.caches, self.windings, self.planes, self.coarse = {}, {}, {}, {}, {}, {}
         self.lock = threading.Lock()
 

@@ -54,12 +54,49 @@ class Buckets:
         return np.flatnonzero(mark) + lo
 
 
-class BlockCache:
-    """The fields of one channel's blocks, computed on demand (thread-safe, one at a time)."""
+class FieldBudget:
+    """Bytes of block fields that several BlockCaches hold together (a preparation's: every
+    channel at every zoom), the least recently used block of any of them out first."""
 
-    def __init__(self, cl, distance: str, smooth: bool, sharpen, capacity: int):
-        self.cl, self.distance, self.smooth, self.sharpen = cl, distance, smooth, sharpen
+    def __init__(self, capacity: int):
         self.capacity = capacity
+        self.bytes = 0
+        self.order = OrderedDict()  # (id(cache), key) -> (cache, bytes)
+        self.lock = threading.Lock()
+
+    def used(self, cache, key) -> None:
+        with self.lock:
+            if (id(cache), key) in self.order:
+                self.order.move_to_end((id(cache), key))
+
+    def add(self, cache, key, nbytes: int) -> list:
+        """Count a block in; returns the (cache, key) of the blocks to let go (never the new
+        one): the caller pops them from their caches."""
+        with self.lock:
+            self.order[(id(cache), key)] = (cache, nbytes)
+            self.bytes += nbytes
+            out = []
+            while self.bytes > self.capacity and len(self.order) > 1:
+                (_, k), (c, b) = self.order.popitem(last=False)
+                self.bytes -= b
+                out.append((c, k))
+            return out
+
+    def remove(self, cache, key) -> None:
+        with self.lock:
+            got = self.order.pop((id(cache), key), None)
+            if got is not None:
+                self.bytes -= got[1]
+
+
+class BlockCache:
+    """The fields of one channel's blocks, computed on demand (thread-safe, one at a time),
+    within ``capacity`` bytes, or within a FieldBudget shared with other caches."""
+
+    def __init__(self, cl, distance: str, smooth: bool, sharpen, capacity: int, budget: FieldBudget | None = None):
+        self.cl, self.distance, self.smooth, self.sharpen = cl, distance, smooth, sharpen
+        self.capacity = capacity if budget is None else budget.capacity
+        self.budget = budget
         self.blocks = OrderedDict()
         self.bytes = 0
         self.lock = threading.RLock()
@@ -69,6 +106,8 @@ class BlockCache:
             nf = self.blocks.get((bi, bj))
             if nf is not None:
                 self.blocks.move_to_end((bi, bj))
+                if self.budget is not None:
+                    self.budget.used(self, (bi, bj))
                 return nf
             return self._put((bi, bj), self._field((bi, bj)))
 
@@ -94,6 +133,14 @@ class BlockCache:
     def _put(self, key, nf):
         self.blocks[key] = nf
         self.bytes += nf.band.size * WINDOW_BYTES
+        if self.budget is not None:
+            # another cache's block is popped without its lock (that would order locks across
+            # caches): a reader already holding the block keeps it; its next get recomputes it
+            for cache, k in self.budget.add(self, key, nf.band.size * WINDOW_BYTES):
+                gone = cache.blocks.pop(k, None)
+                if gone is not None:
+                    cache.bytes -= gone.band.size * WINDOW_BYTES
+            return nf
         while self.bytes > self.capacity and len(self.blocks) > 1:
             _, old = self.blocks.popitem(last=False)
             self.bytes -= old.band.size * WINDOW_BYTES
@@ -104,6 +151,8 @@ class BlockCache:
             nf = self.blocks.pop((bi, bj), None)
             if nf is not None:
                 self.bytes -= nf.band.size * WINDOW_BYTES
+                if self.budget is not None:
+                    self.budget.remove(self, (bi, bj))
 
 
 class SampleEdges:

@@ -10,7 +10,8 @@ is the same region of the full render.
 Preparation cost (VectorImage.prepare, or the first tile of a zoom): per channel and zoom a
 segment index, the canvas-wide regions and the row windings (prepare.py gives the bytes and
 passes), and for the reductions among the zooms given, the samples of the whole canvas at
-their lattices. Block fields are kept within prepare.FIELD_BYTES (384 MB) a zoom. After that
+their lattices. Block fields are kept within prepare.FIELD_BYTES (384 MB), every channel and
+zoom together. After that
 a tile at or above 1x reads the segments of its own blocks and columns only: its cost is its
 windows' fields and its samples, whatever the canvas; a tile of a prepared reduction copies
 and box-filters its samples.
