@@ -113,10 +113,9 @@ def range_bytes(checked, g_forced=None, account=False, version=isoph.FORMAT_VERS
         s_p, s_c, s_v = isoph_range.grid_shift(pts), isoph_range.grid_shift(ch.cq), isoph_range.grid_shift(ch.vq)
         pts = pts >> s_p
         g = isoph_range.anchor_shift(pts[0::3]) if g_forced is None else g_forced
-        coded, b = entropy.encode_channel(
-            ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8), g,
-            ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> s_c), ch.vq >> s_v,
-            s_p, s_c, s_v, info.levels, info.base_band, version, account)
+        coded, b = isoph_range.code_channel(
+            ch.level, ch.nseg, ch.parent, pts, ch.border.astype(np.uint8), g, ch.cap_contour, ch.cap_band,
+            ch.cq >> s_c, ch.vq >> s_v, s_p, s_c, s_v, info.levels, info.base_band, version, account)
         total += len(coded)
         bits += b
     return total, bits

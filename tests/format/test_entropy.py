@@ -372,13 +372,14 @@ def test_parts_code_as_the_spec_says_and_decode_in_any_number_of_threads(monkeyp
     fields = ref_fields(ch, info, 5)
     fields["part_segments"] = 6
     assert coded == R.encode_channel(fields)
-    # the writer's parts side by side (range_channel) are the one kernel's, part after part
+    # the writer's parts side by side (range_channel) are the same coded one after another
     pts = isoph_layout.stored_points(ch) >> info.s_p
-    seq, _ = E.encode_channel(ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8),
-                              info.g, ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c),
-                              ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 5,
-                              False, 6)
-    assert seq.tobytes() == coded
+    for workers in (1, 3):
+        seq, _ = isoph_range.code_channel(ch.level, ch.nseg, ch.parent, pts, ch.border.astype(np.uint8), info.g,
+                                          ch.cap_contour, ch.cap_band, ch.cq >> info.s_c, ch.vq >> info.s_v,
+                                          info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 5,
+                                          workers=workers)
+        assert seq == coded
     parts = int.from_bytes(coded[-4:], "little") + 1
     assert parts == len(E.part_starts(ch.nseg, 6)) - 1 > 4
     args = (info.n_contours, info.n_segments, info.n_caps, info.g, info.s_p, info.s_c, info.s_v, info.levels,
@@ -434,9 +435,9 @@ def test_mutated_parts_decode_alike(monkeypatch, seed):
     assert "parts" in verdicts and len(verdicts) > 2, verdicts
 
 
-def test_accounting_codes_the_same_bytes_and_counts_them():
+def test_accounting_codes_the_same_bytes_and_counts_them(monkeypatch):
     """encode_channel's accounting (the coding study's bits per model) changes no byte, and
-    the bits it counts add up to the stream's length."""
+    the bits it counts add up to the stream's length; so do code_channel's, parts and all."""
     vi = isophote.encode(np.clip(128 + 90 * np.sin(np.add.outer(np.arange(24) / 3.0, np.arange(28) / 4.0)), 0, 255))
     ch = isoph_write.checked_channel(vi.channels[0])
     coded = isoph_range.range_channel(ch, 4)
@@ -447,3 +448,15 @@ def test_accounting_codes_the_same_bytes_and_counts_them():
                                  ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 4, True)
     assert out.tobytes() == coded
     assert abs(bits.sum() - 8 * len(coded)) < 0.02 * 8 * len(coded) + 40
+    _, ch, parted = _parted(monkeypatch)
+    info = ch.info
+    pts = isoph_layout.stored_points(ch) >> info.s_p
+    args = (ch.level, ch.nseg, ch.parent, pts, ch.border.astype(np.uint8), info.g, ch.cap_contour, ch.cap_band,
+            ch.cq >> info.s_c, ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 5)
+    out, bits = isoph_range.code_channel(*args, account=True)
+    _, plain = isoph_range.code_channel(*args)
+    streams = int.from_bytes(parted[-4:], "little") + 1
+    table = 4 * streams  # the parts' sizes and count: no model's
+    assert out == parted and not plain.any() and streams > 4
+    # each stream ends with up to 4 bytes of flush beyond the bits its models spent
+    assert 8 * (len(parted) - table - 4 * streams) - 40 < bits.sum() < 8 * (len(parted) - table)

@@ -157,14 +157,12 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
     def setup(ch):
         cl, cache = channel_state(vi, ch, vp, opts, prep)
         xs, ys = sample_positions(vp, cl.level.r)
-        cuts_ch = cuts if cl.level.block else None
         last = {}
         if cl.level.block:
             nbr = cl.level.blocks()[0]
             for r0, r1 in cuts:
                 for bi, _, _ in split(ys[r0 * vp.s:r1 * vp.s], cl.level.block, nbr):
                     last[bi] = r1
-        del cuts_ch
         windings = buckets = None
         if prep is not None and cl.level.block and vp.out_w * vp.s < 0.75 * vi.width * vp.kx:
             # a crop of a prepared master: its strips read the canvas's row windings left of it

@@ -392,11 +392,25 @@ def _enc_caps(st, out, probs, level, nseg, pts, cap_contour, cap_band, cap_xy, c
 
 
 @njit(cache=True, nogil=True)
+def new_state(account):
+    """A coder's state: low, range, cache, cache_size, pos, then, when accounting, the first
+    flag slot and the bits spent per model and flag slot (millionths)."""
+    st = np.zeros(5 + (1 + N_MODELS + 18 if account else 0), np.int64)
+    st[1] = 0xFFFFFFFF
+    st[3] = 1
+    if account:
+        st[5] = F_BORDER
+    return st
+
+
+@njit(cache=True, nogil=True)
 def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, cap_xy, cap_value,
-                   s_p, s_c, s_v, levels, base_band, layout, account, part_segments=PART_SEGMENTS,
-                   main_only=False):
-    """One channel's coded bytes (uint8 array), and the bits spent per model and flag slot
-    (float64, N_MODELS + 18 entries; all 0 unless ``account``: it slows coding down).
+                   s_p, s_c, s_v, levels, base_band, layout, account, part_segments=PART_SEGMENTS):
+    """One channel's own stream (uint8 array), and the bits spent in it per model and flag
+    slot (float64, N_MODELS + 18 entries; all 0 unless ``account``: it slows coding down).
+    Before layout 5 the stream is the channel's coded bytes; from layout 5 it holds the
+    contours, the first part of the points and the caps, and rangecoded.code_channel adds
+    the later parts (encode_part) and their table.
 
     level, nseg, parent : (C,) int64.
     pts : (3 S, 2) int64: the stored points (no closing points) on the point grid.
@@ -408,59 +422,37 @@ def encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, c
     layout : 2 to 5, the format version whose predictions to use (3: chords after half the
         previous chord, handles in the chord's frame; 4: 3 and the handle shifts; 5: 4 with the
         points in parts of part_segments, part_starts).
-    main_only : layout 5, the channel's own stream alone (its other parts: encode_part, which
-        a writer may run side by side; rangecoded.range_channel).
     """
     probs = new_probs_kernel()
-    st = np.zeros(5 + (1 + N_MODELS + 18 if account else 0), np.int64)
-    st[1] = 0xFFFFFFFF
-    st[3] = 1
-    if account:
-        st[5] = F_BORDER
+    st = new_state(account)
     c = level.shape[0]
     out = np.empty(64 + 4 * c + 8 * pts.shape[0] + 8 * cap_contour.shape[0], np.uint8)
     out = _enc_contours(st, out, probs, level, nseg, parent)
     starts = part_starts(nseg, part_segments if layout >= 5 else 0)
-    t0 = np.zeros(c + 1, np.int64)  # each contour's first stored point, and its first segment
-    for k in range(c):
-        t0[k + 1] = t0[k] + 3 * nseg[k]
-    sizes = np.zeros(starts.shape[0] - 2, np.int64)
-    tail = np.empty(0, np.uint8)  # parts 1 .. P - 1 (layout 5: then their sizes and P - 1)
-    for p in range(starts.shape[0] - 1):
-        if p == 0:  # in the channel's own stream, after the contours
-            out = _enc_points(st, out, probs, pts, border, nseg, starts[0], starts[1], t0, g, layout)
-            continue
-        if main_only:
-            continue
-        pst = np.zeros(st.shape[0], np.int64)
-        part = encode_part(pst, pts, border, nseg, starts[p], starts[p + 1], t0, g, layout)
-        sizes[p - 1] = part.shape[0]
-        tail = _grow(tail, sizes[: p - 1].sum() + part.shape[0])  # doubling: linear in the parts' bytes
-        tail[sizes[: p - 1].sum(): sizes[:p].sum()] = part
-        if account:
-            st[6:] += pst[6:]
+    out = _enc_points(st, out, probs, pts, border, nseg, 0, starts[1], first_points(nseg), g, layout)
     out = _enc_caps(st, out, probs, level, nseg, pts, cap_contour, cap_band, cap_xy, cap_value,
                     s_p, s_c, s_v, levels, base_band)
     out = _grow(out, st[4] + st[3] + 16)
     bits = np.zeros(N_MODELS + 18)
     if account:
         bits[:] = st[6:] / 1e6
-    head = _finish(st, out)
-    if layout < 5 or main_only:
-        return head, bits
-    count = np.full(1, sizes.shape[0], np.int64)
-    return np.concatenate((head, tail[: sizes.sum()], _u32_le(sizes), _u32_le(count))), bits
+    return _finish(st, out), bits
+
+
+@njit(cache=True, nogil=True)
+def first_points(nseg):
+    """(C + 1,) each contour's first stored point (3 a segment before it), then the total."""
+    t0 = np.zeros(nseg.shape[0] + 1, np.int64)
+    for k in range(nseg.shape[0]):
+        t0[k + 1] = t0[k] + 3 * nseg[k]
+    return t0
 
 
 @njit(cache=True, nogil=True)
 def encode_part(pst, pts, border, nseg, k0, k1, t0, g, layout):
     """Contours k0 .. k1 - 1's points as a part of their own (layout 5): a fresh stream and
-    probabilities; pst (zeros, the channel stream's length: its accounting slots when
-    accounting) is left with the stream's state. t0: each contour's first stored point."""
-    pst[1] = 0xFFFFFFFF
-    pst[3] = 1
-    if pst.shape[0] > 5:
-        pst[5] = F_BORDER
+    probabilities; pst (new_state) is left with the stream's state, its accounting included.
+    t0: first_points."""
     pout = np.empty(64 + 8 * (t0[k1] - t0[k0]), np.uint8)
     pout = _enc_points(pst, pout, new_probs_kernel(), pts, border, nseg, k0, k1, t0, g, layout)
     pout = _grow(pout, pst[4] + pst[3] + 16)
@@ -484,15 +476,6 @@ def part_starts(nseg, part_segments):
             acc = 0
     out[n] = c
     return out[: n + 1].copy()
-
-
-@njit(cache=True, nogil=True)
-def _u32_le(v):
-    out = np.empty(4 * v.shape[0], np.uint8)
-    for i in range(v.shape[0]):
-        for b in range(4):
-            out[4 * i + b] = (v[i] >> (8 * b)) & 0xFF
-    return out
 
 
 @njit(cache=True, nogil=True)

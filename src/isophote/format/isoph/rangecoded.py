@@ -66,32 +66,48 @@ def range_channel(ch: Checked, version: int = FORMAT_VERSION) -> bytes:
     info.s_v = grid_shift(ch.vq)
     pts = pts >> info.s_p
     info.g = anchor_shift(pts[0::3])
-    pts, border = np.ascontiguousarray(pts), ch.border.astype(np.uint8)
-    starts = entropy.part_starts(ch.nseg, entropy.PART_SEGMENTS if version >= 5 else 0)
-    t0 = np.zeros(ch.nseg.shape[0] + 1, np.int64)  # each contour's first stored point
-    np.cumsum(3 * ch.nseg, out=t0[1:])
+    coded, _ = code_channel(ch.level, ch.nseg, ch.parent, pts, ch.border.astype(np.uint8), info.g, ch.cap_contour,
+                            ch.cap_band, ch.cq >> info.s_c, ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v,
+                            info.levels, info.base_band, version)
+    info.coded_size = len(coded)
+    return coded
+
+
+def code_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band, cap_xy, cap_value, s_p, s_c, s_v,
+                 levels, base_band, version, account=False, workers=None):
+    """A channel's coded bytes in ``version``'s layout (the arguments of entropy.encode_channel)
+    and the bits spent per model (all 0 unless ``account``). From layout 5: the channel's own
+    stream, its later parts of points (entropy.encode_part) side by side in ``workers`` threads
+    (None: the processors'), their sizes (u32) and their count (u32); the same bytes whatever
+    the threads."""
+    pts = np.ascontiguousarray(pts)
+    starts = entropy.part_starts(nseg, entropy.PART_SEGMENTS if version >= 5 else 0)
+    t0 = entropy.first_points(nseg)
 
     def part(p):  # p = 0: the channel's own stream (contours, the first part, caps)
         if p == 0:
-            return entropy.encode_channel(
-                ch.level, ch.nseg, ch.parent, pts, border, info.g, ch.cap_contour, ch.cap_band,
-                np.ascontiguousarray(ch.cq >> info.s_c), ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v,
-                info.levels, info.base_band, version, False, entropy.PART_SEGMENTS, True)[0]
-        return entropy.encode_part(np.zeros(5, np.int64), pts, border, ch.nseg, starts[p], starts[p + 1], t0,
-                                   info.g, version)
+            return entropy.encode_channel(level, nseg, parent, pts, border, g, cap_contour, cap_band,
+                                          np.ascontiguousarray(cap_xy), cap_value, s_p, s_c, s_v, levels, base_band,
+                                          version, account, entropy.PART_SEGMENTS)
+        st = entropy.new_state(account)
+        return entropy.encode_part(st, pts, border, nseg, starts[p], starts[p + 1], t0, g, version), st[6:] / 1e6
 
     n = starts.shape[0] - 1
-    if n > 1 and threads.available() > 1:  # the parts are independent streams: side by side
-        with ThreadPoolExecutor(max_workers=threads.available(n)) as pool:
+    workers = threads.available(n) if workers is None else max(1, min(workers, n))
+    if workers > 1:  # the parts are independent streams: side by side
+        with ThreadPoolExecutor(max_workers=workers) as pool:
             parts = list(pool.map(part, range(n)))
     else:
         parts = [part(p) for p in range(n)]
-    coded = parts[0].tobytes()
+    coded = parts[0][0].tobytes()
     if version >= 5:
-        coded += b"".join(p.tobytes() for p in parts[1:])
-        coded += b"".join(len(p).to_bytes(4, "little") for p in parts[1:]) + (n - 1).to_bytes(4, "little")
-    info.coded_size = len(coded)
-    return coded
+        coded += b"".join(p.tobytes() for p, _ in parts[1:])
+        coded += b"".join(len(p).to_bytes(4, "little") for p, _ in parts[1:]) + (n - 1).to_bytes(4, "little")
+    bits = parts[0][1].copy()
+    if account:
+        for _, b in parts[1:]:
+            bits += b
+    return coded, bits
 
 
 # What each decoder status means: (message template, with {where} and {extra}).
