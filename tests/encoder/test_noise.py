@@ -35,6 +35,27 @@ def test_residual_ignores_planes():
     assert np.abs(residual(_ramp())[1:-1, 1:-1]).max() < 1e-9
 
 
+@pytest.mark.parametrize("win", [16, 15, 4, 3])
+def test_window_medians_are_numpys(win):
+    """The kernel selects each window's middle samples in place; its twin gathers the
+    windows and takes NumPy's median: the same bits, with ties (integer samples), odd and
+    even windows, and windows that overlap or skip samples."""
+    from isophote.encoder._kernels.median import window_medians
+    from isophote.encoder._kernels.median_ref import window_medians as window_medians_ref
+
+    rng = np.random.default_rng(win)
+    for rp in (rng.integers(0, 6, (61, 83)).astype(np.float64), rng.standard_normal((61, 83)) * 7.3,
+               np.full((61, 83), 2.5)):
+        rows = np.arange(0, 61 - win + 1, 5, dtype=np.int64)
+        cols = np.array([0, 1, 2, 17, 83 - win], np.int64)
+        got = window_medians(rp, rows, cols, win)
+        assert np.array_equal(got, window_medians_ref(rp, rows, cols, win))
+    one = np.arange(9.0).reshape(3, 3)[::-1]  # 8 .. 0: the middle of 9 is 4
+    assert window_medians(np.ascontiguousarray(one), np.zeros(1, np.int64), np.zeros(1, np.int64), 3)[0, 0] == 4.0
+    two = np.array([[1.0, 9.0], [3.0, 4.0]])  # the mean of the middle two, 3 and 4
+    assert window_medians(two, np.zeros(1, np.int64), np.zeros(1, np.int64), 2)[0, 0] == 3.5
+
+
 @pytest.mark.parametrize("sigma", [1.0, 3.0, 8.0])
 def test_white_noise_deviation_comes_back_within_15_percent(sigma):
     rng = np.random.default_rng(7)

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._kernels.median import window_medians
 from .prune import prune_extrema
 
 WINDOW = 16  # pixels: the robust estimate's window
@@ -98,7 +99,8 @@ def local_noise(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -
     """
     from scipy import ndimage
 
-    r = np.abs(residual(plane))
+    r = residual(plane)
+    np.abs(r, out=r)
     h, w = r.shape
     win = min(window, h, w)
     if win < 3:
@@ -112,9 +114,12 @@ def local_noise(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -
     rp = np.pad(r, ((pad_lo, pad_y), (pad_lo, pad_x)), mode="reflect" if min(h, w) > pad_lo else "edge")
     cy = stride // 2 + np.arange(ny) * stride  # centre rows in image coordinates
     cx = stride // 2 + np.arange(nx) * stride
-    view = np.lib.stride_tricks.sliding_window_view(rp, (win, win))
-    blocks = view[np.ix_(cy - win // 2 + pad_lo, cx - win // 2 + pad_lo)]
-    coarse = MAD_TO_SIGMA * np.median(blocks.reshape(ny, nx, -1), axis=-1)
+    del r
+    # each window's median selected in place (_kernels/median.py: NumPy's bits, without the
+    # twin's copies of every window, 64 bytes a pixel)
+    coarse = MAD_TO_SIGMA * window_medians(rp, (cy - win // 2 + pad_lo).astype(np.int64),
+                                           (cx - win // 2 + pad_lo).astype(np.int64), win)
+    del rp
     # bilinear from the window centres to every pixel (edge values held beyond them)
     yy = np.clip((np.arange(h) - stride // 2) / stride, 0, ny - 1)
     xx = np.clip((np.arange(w) - stride // 2) / stride, 0, nx - 1)
