@@ -258,23 +258,25 @@ def test_prefetch_gives_the_fields_get_computes(vi, forced_blocks):
 
 @pytest.mark.parametrize("forced", (False, True))
 def test_prepared_reductions_are_crops_of_their_sample_planes(vi, monkeypatch, forced):
-    """A preparation keeps each reduction's samples over the canvas (one plane a channel and
-    lattice: 1/2 and 1/4 both sample every source pixel, 1/8 every other one), and its tiles
-    are box filters of them, computing no sample: they equal an unprepared copy's renders."""
+    """A preparation keeps 1x's and each reduction's samples over the canvas (one plane a
+    channel, level and lattice: 1x, 1/2 and 1/4 sample every source pixel, 1x on a level of
+    its own, 1/8 every other one), and its tiles are copies or box filters of them, computing
+    no sample: they equal an unprepared copy's renders."""
     import isophote.render as R
     from isophote.render.tiles import Tiler
 
     if forced:
         _force_blocks(monkeypatch)
     prepared, fresh = dataclasses.replace(vi), dataclasses.replace(vi)
-    t = Tiler(prepared, zooms=(0.125, 0.25, 0.5))
+    t = Tiler(prepared, zooms=(0.125, 0.25, 0.5, 1.0))
     planes = t.preparation.planes
     shapes = sorted(p.shape for k, p in planes.items() if k[0] != "lock")
-    assert shapes == sorted([(72, 96)] * 3 + [(36, 48)] * 3)
+    assert shapes == sorted([(72, 96)] * 6 + [(36, 48)] * 3)
     monkeypatch.setattr(R, "fill_samples", None)  # the plane path must not reach it
     monkeypatch.setattr(strips, "fill_samples", None)
     tiles = [(0, 0, 64, 64, 8, 8), (64, 32, 32, 40, 4, 5), (0, 0, 32, 32, 8, 8), (64, 64, 32, 8, 8, 2),
-             (0, 0, 16, 16, 8, 8), (80, 48, 16, 24, 8, 12), (0, 0, 96, 72, 48, 36)]
+             (0, 0, 16, 16, 8, 8), (80, 48, 16, 24, 8, 12), (0, 0, 96, 72, 48, 36),
+             (8, 16, 40, 24, 40, 24), (0, 0, 96, 72, 96, 72), (95, 71, 1, 1, 1, 1)]
     got = [t.tile(*tile) for tile in tiles]
     monkeypatch.undo()
     if forced:

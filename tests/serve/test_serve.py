@@ -423,3 +423,39 @@ def test_server_prepares_the_pyramid_at_start(master_files):
         assert r.status_code == 200
         fresh = isophote.load(path).render(crop=(x, y, w, h), width=ow, height=oh)
         assert np.array_equal(decode(r.content), fresh), (level, col, row)
+
+
+def test_prepared_samples_are_served_in_the_copy_lane(master_files, monkeypatch):
+    """Once prepared, tiles at 1x and below copy the preparation's samples and run in the
+    copy lane (a thread of their own), never behind the renders of the deeper zooms; tiles
+    above 1x and the flat fill (no planes) go to the render pool. Both give the renders."""
+    from isophote.serve import app as app_module
+
+    png, path = master_files
+    m = tiles.load_master(path)
+    lanes = []
+    real = app_module.render_tile
+
+    def record(master, region, size, fill="diffusion"):
+        lanes.append((size[0] / region[2], fill, threading.current_thread().name.split("_")[0]))
+        return real(master, region, size, fill)
+
+    monkeypatch.setattr(app_module, "render_tile", record)
+    app = create_app([m], zoom=4, prepare=True)
+    app.state.preparer.join(120)
+    c = TestClient(app)
+    asks = [("0,0,64,48/64,48", ""), ("0,0,64,48/32,24", ""), ("8,8,32,32/^64,64", ""), ("0,0,64,48/64,48", "?fill=flat"),
+            ("16,8,16,16/16,16", "")]
+    for region_size, query in asks:
+        r = c.get(f"/iiif/grad/{region_size}/0/default.png{query}")
+        assert r.status_code == 200
+        (x, y, w, h), (ow, oh) = [tuple(int(v) for v in part.strip("^").split(","))
+                                  for part in region_size.split("/")]
+        fill = "flat" if query else "diffusion"
+        fresh = isophote.load(path).render(crop=(x, y, w, h), width=ow, height=oh, fill=fill)
+        assert np.array_equal(decode(r.content), fresh), region_size
+    assert lanes == [(1.0, "diffusion", "isophote-copy"), (0.5, "diffusion", "isophote-copy"),
+                     (2.0, "diffusion", "isophote-tile"), (1.0, "flat", "isophote-tile"),
+                     (1.0, "diffusion", "isophote-copy")]
+    assert not tiles.is_copy(m, (0, 0, 64, 48), (64, 48), "flat")
+    assert not tiles.is_copy(m, (0, 0, 0, 48), (64, 48))  # not a render's options: the render pool says why

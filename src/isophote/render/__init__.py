@@ -27,7 +27,7 @@ import numpy as np
 from .. import threads
 from ..colour import YUV_TO_RGB, fit_gamut, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
-from ..errors import LimitError
+from ..errors import IsophoteError, LimitError
 from ..options import RenderOptions, make
 from ..geometry import segment_starts
 from ..shared.heap import return_freed_memory
@@ -300,10 +300,10 @@ def _plane_key(vi, ch, vp: Viewport, opts: RenderOptions):
 
 def plane_lattice(vi, vp: Viewport) -> tuple[int, int] | None:
     """(rows, columns) of the canvas's sample plane at this viewport's lattice, or None
-    where a preparation keeps none: only reductions whose samples are at most one a source
-    pixel (kx, ky <= 1) on the canvas's own lattice (no offset), so that a plane holds at
-    most as many samples as the canvas has pixels."""
-    if max(vp.kx, vp.ky) / vp.s >= 1.0 - 1e-9 or max(vp.kx, vp.ky) > 1.0 + 1e-12 or vp.offx or vp.offy:
+    where a preparation keeps none: only 1x and the reductions, whose samples are at most
+    one a source pixel (kx, ky <= 1) on the canvas's own lattice (no offset), so that a
+    plane holds at most as many samples as the canvas has pixels."""
+    if max(vp.kx, vp.ky) / vp.s > 1.0 + 1e-9 or max(vp.kx, vp.ky) > 1.0 + 1e-12 or vp.offx or vp.offy:
         return None
     return int(np.ceil(vi.height * vp.ky - 1e-9)), int(np.ceil(vi.width * vp.kx - 1e-9))
 
@@ -339,6 +339,21 @@ def prepared_planes(vi, vp: Viewport, opts: RenderOptions, prep):
             return None
         planes[ch.name] = plane
     return planes
+
+
+def copies_prepared_samples(vi, **options) -> bool:
+    """Whether ``render(vi, **options)`` would copy its samples from the preparation's planes
+    (1x and the prepared reductions: a copy and a box filter, about a millisecond a tile)
+    rather than compute any; False where the options are not a valid render's."""
+    prep = prepared(vi)
+    if prep is None or not prep.planes:
+        return False
+    try:
+        opts = make(RenderOptions, options)
+        opts.validate()
+        return prepared_planes(vi, viewport(vi, opts), opts, prep) is not None
+    except (IsophoteError, ValueError, TypeError):
+        return False
 
 
 def prepared_windings(vi, ch, cl, vp: Viewport, prep):

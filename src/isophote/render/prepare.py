@@ -19,14 +19,16 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
 - for a one-window level, its edges by buckets of the canvas's sample rows
   (strips.canvas_buckets: 8 bytes an edge and bucket it reaches), so that a crop maps and
   rasterises the edges of its own rows only;
-- for a reduction prepared with ``prepare(vi, zooms)`` (a zoom below 1 whose samples are at
-  most one a source pixel: render.plane_lattice), each channel's samples over the whole
-  canvas at its lattice (render.make_plane: float32, so at most 4 bytes a canvas pixel and
-  channel a lattice, and the lattices of 1:2, 1:4, 1:8, ... add to at most 16/3 bytes a pixel
-  and channel; 1:2 and 1:4 share one, every source pixel's centre): a tile there is a copy of
-  its samples and the box filter (the same bytes, a crop being the same region of the full
-  render). Making one costs the level's block fields once (let go after) and the samples of
-  the whole reduction at that lattice;
+- for 1x and a reduction prepared with ``prepare(vi, zooms)`` (a zoom at or below 1 whose
+  samples are at most one a source pixel: render.plane_lattice), each channel's samples over
+  the whole canvas at its lattice (render.make_plane: float32, so at most 4 bytes a canvas
+  pixel and channel a lattice; 1x's and those of 1:2, 1:4, 1:8, ... add to at most 28/3
+  bytes a pixel and channel; 1:2 and 1:4 share one, every source pixel's centre, as 1x's
+  does on a level of its own): a tile there is a copy of its samples and the box filter
+  (the same bytes, a crop being the same region of the full render). Making one costs the
+  level's block fields once (let go after) and the samples of the whole canvas at that
+  lattice: at 1x, a 1x render's work (Kite, 2560 x 1600: 3.7 s); a cold 1x tile then
+  costs about 1 ms, not 90 (benchmarks/results/serve_load.md);
 - the block fields, least recently used first out, within ``field_bytes`` for every channel
   and zoom together (strips.FieldBudget; WINDOW_BYTES a node of a window). Until 2026-12 it
   was field_bytes a zoom: a 4 MP master served at its nine zooms peaked at 2.4 GB.

@@ -13,6 +13,11 @@ Routes (ids are the masters' file stems; nothing else reaches the file system):
 Renders run in a thread pool of ``workers`` threads off the event loop; at most ``queue``
 renders are admitted at once (running or waiting), beyond which a request gets 503 with
 Retry-After. Equal requests in flight share one render. Encoded tiles live in a ByteLRU.
+Tiles whose samples the preparation holds (1x and the reductions: a copy, a box filter and
+the image encoding, a few milliseconds) run in a copy lane of one thread of their own, so
+that they never wait behind the renders of the deeper zooms (under the load benchmark a
+cold 1x tile waited 53 ms at the median for 1 ms of work: benchmarks/results/serve_load.md);
+they count against the same queue.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from starlette.staticfiles import StaticFiles
 from ..errors import IsophoteError
 from . import dzi, iiif
 from .page import BROWSER_FORMATS, STATIC, ZOOM, viewer_page
-from .tiles import FILLS, prepare_master, render_bytes, render_contours, render_tile
+from .tiles import FILLS, is_copy, prepare_master, render_bytes, render_contours, render_tile
 
 CACHE_BYTES = 256 << 20
 MAX_AGE = 3600
@@ -47,12 +52,15 @@ class Renderer:
         from .cache import ByteLRU
 
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="isophote-tile")
+        self.copies = ThreadPoolExecutor(max_workers=1, thread_name_prefix="isophote-copy")
         self.limit = queue
         self.admitted = 0  # renders running or waiting in the pool
         self.cache = ByteLRU(cache_bytes)
         self.pending: dict = {}
 
-    async def get(self, key, work):
+    async def get(self, key, work, copy: bool = False):
+        """The bytes of ``work()`` (cached, or shared with an equal request in flight);
+        ``copy``: it only copies prepared samples, and runs in the copy lane."""
         data = self.cache.get(key)
         if data is not None:
             return data
@@ -61,7 +69,7 @@ class Renderer:
             if self.admitted >= self.limit:
                 raise Busy()
             self.admitted += 1
-            fut = asyncio.get_running_loop().run_in_executor(self.pool, work)
+            fut = asyncio.get_running_loop().run_in_executor(self.copies if copy else self.pool, work)
             self.pending[key] = fut
 
             def done(f, key=key):
@@ -169,7 +177,7 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
             return encode_image(render_tile(m, region, size, fill), fmt)
 
         try:
-            data = await renderer.get(key, work)
+            data = await renderer.get(key, work, kind == "tile" and is_copy(m, region, size, fill))
         except Busy:
             return PlainTextResponse("render queue full; retry shortly\n", status_code=503,
                                      headers={"Retry-After": "1"})

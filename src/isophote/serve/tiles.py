@@ -149,6 +149,17 @@ def render_tile(master: Master, region, size, fill: str = "diffusion") -> np.nda
     return a[..., None] if a.ndim == 2 else a
 
 
+def is_copy(master: Master, region, size, fill: str = "diffusion") -> bool:
+    """Whether render_tile(master, region, size, fill) copies its samples from the master's
+    preparation (1x and the reductions, render/prepare.py): about a millisecond, so the
+    server runs it in its copy lane rather than behind the renders (app.Renderer)."""
+    from ..render import copies_prepared_samples
+
+    w, h = size
+    return copies_prepared_samples(master.vi, width=int(w), height=int(h), crop=tuple(float(v) for v in region),
+                                   fill=fill, max_pixels=2**62)
+
+
 def render_contours(master: Master, region, size) -> np.ndarray:
     """(out_h, out_w, 4) uint8: the Y contours of the region as lines on transparent ground."""
     from ..overlay import coverage
