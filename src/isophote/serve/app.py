@@ -58,9 +58,10 @@ class Renderer:
         self.cache = ByteLRU(cache_bytes)
         self.pending: dict = {}
 
-    async def get(self, key, work, copy: bool = False):
+    async def get(self, key, work, copy=None):
         """The bytes of ``work()`` (cached, or shared with an equal request in flight);
-        ``copy``: it only copies prepared samples, and runs in the copy lane."""
+        ``copy``: None, or asked only when ``work`` must run: whether it only copies
+        prepared samples, and so runs in the copy lane."""
         data = self.cache.get(key)
         if data is not None:
             return data
@@ -69,7 +70,8 @@ class Renderer:
             if self.admitted >= self.limit:
                 raise Busy()
             self.admitted += 1
-            fut = asyncio.get_running_loop().run_in_executor(self.copies if copy else self.pool, work)
+            lane = self.copies if copy is not None and copy() else self.pool
+            fut = asyncio.get_running_loop().run_in_executor(lane, work)
             self.pending[key] = fut
 
             def done(f, key=key):
@@ -177,7 +179,8 @@ def create_app(masters, workers: int | None = None, queue: int | None = None, ca
             return encode_image(render_tile(m, region, size, fill), fmt)
 
         try:
-            data = await renderer.get(key, work, kind == "tile" and is_copy(m, region, size, fill))
+            copy = (lambda: is_copy(m, region, size, fill)) if kind == "tile" else None
+            data = await renderer.get(key, work, copy)
         except Busy:
             return PlainTextResponse("render queue full; retry shortly\n", status_code=503,
                                      headers={"Retry-After": "1"})
