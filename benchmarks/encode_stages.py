@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import resource
 import time
 
 import numpy as np
@@ -45,11 +46,15 @@ def stages(plane, name, opts, memory, report):
         r0 = rss()[0]
         reset_peak()
         t = time.perf_counter()
+        u0 = resource.getrusage(resource.RUSAGE_SELF)
         res = f()
         dt = time.perf_counter() - t
+        u1 = resource.getrusage(resource.RUSAGE_SELF)
         r1, hwm = rss()
         if report:
-            print(f"| {label} | {(hwm - r0) / npx:.0f} | {(r1 - r0) / npx:.0f} | {dt:.2f} |")
+            print(f"| {label} | {(hwm - r0) / npx:.0f} | {(r1 - r0) / npx:.0f} | {dt:.2f} "
+                  f"| {u1.ru_utime - u0.ru_utime:.2f} | {u1.ru_stime - u0.ru_stime:.2f} "
+                  f"| {(u1.ru_minflt - u0.ru_minflt) / 1e6:.2f} |")
         return res
 
     p2, eps = stage("prepare (noise, pruning)", lambda: noise.prepare_plane(name, plane, 0.5, lev, opts))
@@ -59,7 +64,7 @@ def stages(plane, name, opts, memory, report):
     if report:
         held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
                                                     "band", "values", "offsets"))
-        print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | |")
+        print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | | | | |")
     held = [iso]  # as encode_channel: the values go after the caps, the grid after the reaches
     del iso
     stage("hierarchy", lambda: hierarchy.build_hierarchy_held(held, lev))
@@ -85,7 +90,8 @@ def main(argv=None) -> int:
     memory = budget.parse_memory(args.memory)
     stages(plane[:128, :128].copy(), args.channel, opts, memory, False)  # kernels loaded
     print(f"{args.channel} of {plane.shape[1]}x{plane.shape[0]}, {args.preset}, memory {args.memory}\n")
-    print("| stage | peak B/px | held after B/px | seconds |\n|---|---|---|---|")
+    print("| stage | peak B/px | held after B/px | seconds | user s | system s | minor faults M |\n"
+          "|---|---|---|---|---|---|---|")
     stages(plane, args.channel, opts, memory, True)
     return 0
 

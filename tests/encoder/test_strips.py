@@ -58,3 +58,15 @@ def test_a_flat_plane_has_only_frame_loops():
     plane = np.full((9, 11), 200.0)
     got = strip_isolines(plane, 0.5, levels, opts, 3)
     assert got.n_loops == 0 and got.base_band == int(np.searchsorted(levels, 200.0, "right"))
+
+
+def test_band_of_is_searchsorted_right():
+    from isophote.encoder._kernels.marching import band_of
+
+    levels = np.array([1.5, 4.5, 7.5, 10.5])
+    # values on the levels themselves (ties go above), between, below and above all, signed zero
+    v = np.array([[1.5, 4.5, 7.5, 10.5, 0.0, -0.0], [1.4999999, 4.50000001, 200.0, -3.0, 6.0, 10.49]])
+    out = np.full(v.shape, -7, np.int16)
+    band_of(v, levels, out)
+    assert np.array_equal(out, np.searchsorted(levels, v, side="right"))
+    assert out.tolist() == [[1, 2, 3, 4, 0, 0], [0, 2, 4, 0, 2, 3]]

@@ -223,23 +223,47 @@ def _x_pass(v, e, i, p, scale, cubic, g, ge):
         g[2 * j + 2], ge[2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale, cubic)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
 def map_rows(v, e, p, scale, cubic, g0, g1):
     """Rows [g0, g1) of map_pixels(v, e, ...)'s grid and errors, (g1 - g0, 2W + 1) each,
     bit for bit: v, e are the whole (H, W) plane and its errors (float64, contiguous)."""
     h, w = v.shape
-    w1 = 2 * w - 1
-    n = g1 - g0
+    n = max(g1 - g0, 0)
     g = np.empty((n, 2 * w + 1))
     ge = np.empty((n, 2 * w + 1))
-    if n <= 0:
-        return g, ge
+    rows = x_pass_rows(h, g0, g1)
+    map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge,
+                  np.empty((rows, 2 * w + 1)), np.empty((rows, 2 * w + 1)))
+    return g, ge
+
+
+@njit(cache=True, nogil=True)
+def _x_rows(h, g0, g1):
     lo_eff = min(max(g0, 1), 2 * h - 1)
     hi_eff = min(max(g1 - 1, 1), 2 * h - 1)
     i_lo = max(0, (lo_eff - 1) // 2 - 1)
     i_hi = min(h, hi_eff // 2 + 2)
-    xs = np.empty((i_hi - i_lo, 2 * w + 1))
-    xe = np.empty((i_hi - i_lo, 2 * w + 1))
+    return i_lo, i_hi
+
+
+def x_pass_rows(h: int, g0: int, g1: int) -> int:
+    """Rows of x-pass scratch map_rows_into needs for grid rows [g0, g1) of an h-row plane."""
+    if g1 <= g0:
+        return 0
+    i_lo, i_hi = _x_rows(h, g0, g1)
+    return i_hi - i_lo
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge, xs, xe):
+    """map_rows into g, ge (g1 - g0 rows of 2W + 1, views allowed), with xs, xe as the x
+    pass's scratch (x_pass_rows(H, g0, g1) rows of 2W + 1 each, or more): the encoder's
+    strips reuse one set of buffers strip after strip (encoder/strips.py)."""
+    h, w = v.shape
+    w1 = 2 * w - 1
+    n = g1 - g0
+    if n <= 0:
+        return
+    i_lo, i_hi = _x_rows(h, g0, g1)
     for i in range(i_lo, i_hi):
         _x_pass(v, e, i, p, scale, cubic, xs[i - i_lo], xe[i - i_lo])
     for k in range(n):
@@ -270,4 +294,3 @@ def map_rows(v, e, p, scale, cubic, g0, g1):
         ge[k, 0] = ge[k, 1]
         g[k, w1 + 1] = g[k, w1]
         ge[k, w1 + 1] = ge[k, w1]
-    return g, ge

@@ -24,11 +24,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ._kernels.marching import band_of
 from ._kernels.strips import march_strip
 from .isolines import Isolines
 from .looporder import merge_loops
-from .mapping import map_rows
-from .ribbon import tolerances
+from .mapping import map_rows_into, x_pass_rows
 from .budget import trim_heap
 
 FIELDS = ("points", "border", "below", "above", "tol")
@@ -36,19 +36,26 @@ FIELDS = ("points", "border", "below", "above", "tol")
 
 def grid_window(v, e, levels, opts, w0, w1, hp, wp):
     """Padded values, bands and sample errors of padded rows [w0, w1) (the padding ring is
-    value 0, band 0, error 0)."""
+    value 0, band 0, error 0). The grid's rows are computed in place (mapping.map_rows_into)
+    and banded by a kernel: no copies beside the window."""
     g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
-    g, ge = map_rows(v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1)
     n = w1 - w0
-    wv = np.zeros((n, wp))
-    we = np.zeros((n, wp))
+    wv = np.empty((n, wp))
+    we = np.empty((n, wp))
     a = g0 + 1 - w0
-    wv[a : a + g.shape[0], 1:-1] = g
-    we[a : a + g.shape[0], 1:-1] = ge
-    del g, ge
-    wb = np.searchsorted(levels, wv, side="right").astype(np.int16)  # pad_bands' rule
-    wb[: a] = 0
-    wb[a + (g1 - g0):] = 0
+    rows = max(g1 - g0, 0)
+    xr = x_pass_rows(v.shape[0], g0, g1)
+    map_rows_into(v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1,
+                  wv[a : a + rows, 1:-1], we[a : a + rows, 1:-1], np.empty((xr, wp - 2)), np.empty((xr, wp - 2)))
+    for z in (wv, we):  # the padding ring and the rows outside the grid
+        z[:a] = 0.0
+        z[a + rows :] = 0.0
+        z[:, 0] = 0.0
+        z[:, -1] = 0.0
+    wb = np.empty((n, wp), np.int16)
+    band_of(wv, np.ascontiguousarray(levels, np.float64), wb)  # pad_bands' rule
+    wb[:a] = 0
+    wb[a + rows :] = 0
     wb[:, 0] = 0
     wb[:, -1] = 0
     return wv, wb, we
@@ -65,17 +72,18 @@ class _Chain:
         self.start, self.end, self.level, self.inner, self.frags = start, end, level, inner, frags
 
 
-def _march(v, e, levels, opts, hp, wp, r0, r1):
-    """One strip: its window, its loops (a part for merge_loops) and its pieces."""
+def _march(v, e, levels, opts, hp, wp, r0, r1, vals, band):
+    """One strip: its rows of the grid's values and bands go into ``vals`` and ``band``
+    (strips' rows are disjoint); returns its loops (a part for merge_loops), its pieces and
+    its frame loops' levels."""
     w0, w1 = max(r0 - 1, 0), min(r1 + 2, hp)
     wv, wb, we = grid_window(v, e, levels, opts, w0, w1, hp, wp)
-    (ok, n_kept, offsets, level, key, end_key, inner, points, border, below, above, t, eps_b,
-     eps_a, grad_b, grad_a, skey, frame_levels) = march_strip(wv, wb, we, w0, hp, r0, r1, levels)
+    (ok, n_kept, offsets, level, key, end_key, inner, points, border, below, above, tol, skey,
+     frame_levels) = march_strip(wv, wb, we, w0, hp, r0, r1, levels, float(opts.min_tolerance),
+                                 float(opts.max_tolerance))
     del we
     if not ok:
         raise RuntimeError("marching squares produced an open contour")  # a bug, never input
-    tol = tolerances(eps_b, eps_a, grad_b, grad_a, t, opts.min_tolerance, opts.max_tolerance)
-    del t, eps_b, eps_a, grad_b, grad_a
     m = int(offsets[n_kept])
     loops = dict(points=points[:m], border=border[:m], below=below[:m], above=above[:m], tol=tol[:m],
                  level=level[:n_kept], offsets=offsets[: n_kept + 1], keys=key[:n_kept])
@@ -85,8 +93,10 @@ def _march(v, e, levels, opts, hp, wp, r0, r1):
         frag = dict(points=points[o0:o1].copy(), border=border[o0:o1].copy(), below=below[o0:o1].copy(),
                     above=above[o0:o1].copy(), tol=tol[o0:o1].copy(), skey=skey[o0:o1].copy())
         pieces.append(_Chain(int(key[i]), int(end_key[i]), int(level[i]), bool(inner[i]), [frag]))
-    rows = (r0, r1 + 1 if r1 == hp - 1 else r1)
-    return rows, wv[rows[0] - w0 : rows[1] - w0], wb[rows[0] - w0 : rows[1] - w0], loops, pieces, frame_levels
+    ra, rb = r0, (r1 + 1 if r1 == hp - 1 else r1)
+    vals[ra:rb] = wv[ra - w0 : rb - w0]
+    band[ra:rb] = wb[ra - w0 : rb - w0]
+    return loops, pieces, frame_levels
 
 
 def _join(carried: dict, pieces: list, closed: list, frame: list) -> dict:
@@ -161,21 +171,21 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
     band = np.zeros((hp, wp), np.int16)
     bounds = [(r0, min(r0 + rows, hp - 1)) for r0 in range(0, hp - 1, rows)]
     parts, frame, carried = [], [], {}
+    def march(r0, r1):
+        return _march(v, e, levels, opts, hp, wp, r0, r1, vals, band)
+
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         pending = deque()
         todo = iter(bounds)
         for _ in range(max(1, workers)):
             b = next(todo, None)
             if b is not None:
-                pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b))
+                pending.append(pool.submit(march, *b))
         while pending:
-            (ra, rb), wv, wb, loops, pieces, frame_levels = pending.popleft().result()
+            loops, pieces, frame_levels = pending.popleft().result()
             b = next(todo, None)
             if b is not None:
-                pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b))
-            vals[ra:rb] = wv
-            band[ra:rb] = wb
-            del wv, wb
+                pending.append(pool.submit(march, *b))
             frame.extend(frame_levels.tolist())
             if loops["level"].shape[0]:
                 parts.append(loops)
@@ -185,7 +195,7 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
             if part is not None:
                 parts.append(part)
             del loops, pieces, closed, part
-            trim_heap()  # the strip's freed temporaries go back (encoder/budget.py)
+            trim_heap()  # the strip's freed results go back (encoder/budget.py)
     if carried:
         raise RuntimeError("marching squares produced an open contour")  # a bug, never input
     frame_levels = np.array(sorted(frame), np.int64)

@@ -89,6 +89,25 @@ def pad_bands(grid, levels):
 
 
 @njit(cache=True, nogil=True)
+def band_of(vals, levels, out):
+    """out[r, c] = the number of levels <= vals[r, c] (np.searchsorted(levels, v, "right"),
+    pad_bands' rule), for a window of values."""
+    nl = levels.shape[0]
+    for r in range(vals.shape[0]):
+        for c in range(vals.shape[1]):
+            v = vals[r, c]
+            lo = 0
+            hi = nl
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if levels[mid] <= v:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            out[r, c] = lo
+
+
+@njit(cache=True, nogil=True)
 def _march_cells(vals, band, levels):
     """The segments of every cell and level (the kernel of the module docstring), in scan
     order, with what linking needs. Per segment: its cell

@@ -49,16 +49,18 @@ def _grad_win(wv, w0, r, c, hg, wg):
 
 
 @njit(cache=True, nogil=True)
-def march_strip(wv, wb, we, w0, hp, r0, r1, levels):
+def march_strip(wv, wb, we, w0, hp, r0, r1, levels, min_tol, max_tol):
     """The loops and pieces of the cells of padded rows [r0, r1) (module docstring).
 
     wv, wb, we : padded values, bands and sample errors of rows [w0, w0 + len) of a grid of
         hp rows; they must hold rows r0 - 1 .. r1 + 1 where the grid has them.
+    min_tol, max_tol : the ribbon's clamp (ribbon.tolerances, computed here point by point
+        with the same expressions, so no per-point sample errors and gradients are held).
     Returns (ok, n_loops, offsets, level, key, end_key, inner, points, border, below, above,
-    t, eps_b, eps_a, grad_b, grad_a, skey, frame_levels): chains 0 .. n_loops - 1 are the
-    kept loops in order of their smallest start key (key), the rest the pieces (key: the
-    start key of their first segment, end_key: the key their last segment ends on); per
-    point, in chain order, what march_loops gives, and skey, the start key of the segment
+    tol, skey, frame_levels): chains 0 .. n_loops - 1 are the kept loops in order of their
+    smallest start key (key), the rest the pieces (key: the start key of their first segment,
+    end_key: the key their last segment ends on); per point, in chain order, what
+    march_loops gives with the ribbon's tolerance, and skey, the start key of the segment
     the point starts.
     """
     wp = wv.shape[1]
@@ -159,11 +161,7 @@ def march_strip(wv, wb, we, w0, hp, r0, r1, levels):
     border = np.empty(n_out, np.bool_)
     below = np.empty(n_out, np.int32)  # sample indices: the padded grid of MAX_PIXELS has under 2**31
     above = np.empty(n_out, np.int32)
-    t = np.empty(n_out)
-    eps_b = np.empty(n_out)
-    eps_a = np.empty(n_out)
-    grad_b = np.empty(n_out)
-    grad_a = np.empty(n_out)
+    tol = np.empty(n_out)
     skey = np.empty(n_out, np.int64)
     wv_f = wv.ravel()
     off = w0 * wp
@@ -211,15 +209,19 @@ def march_strip(wv, wb, we, w0, hp, r0, r1, levels):
             tt = _crossing_t(wv_f, b - off, ab - off, s_t[j], rb, cb, ra, ca, hp, wp)
             points[mo, 0] = ((cb - 1) + tt * (ca - cb)) * 0.5
             points[mo, 1] = ((rb - 1) + tt * (ra - rb)) * 0.5
-            t[mo] = tt
             if rb > 0 and cb > 0 and rb < hp - 1 and cb < wp - 1:
-                eps_b[mo] = we[rb - w0, cb]
-                grad_b[mo] = _grad_win(wv, w0, rb - 1, cb - 1, hg, wg)
+                eps_b = we[rb - w0, cb]
+                grad_b = _grad_win(wv, w0, rb - 1, cb - 1, hg, wg)
             else:
-                eps_b[mo] = 0.0
-                grad_b[mo] = 0.0
-            eps_a[mo] = we[ra - w0, ca]
-            grad_a[mo] = _grad_win(wv, w0, ra - 1, ca - 1, hg, wg)
+                eps_b = 0.0
+                grad_b = 0.0
+            eps_a = we[ra - w0, ca]
+            grad_a = _grad_win(wv, w0, ra - 1, ca - 1, hg, wg)
+            # ribbon.tolerances, expression for expression
+            eps = (1.0 - tt) * eps_b + tt * eps_a
+            grad = (1.0 - tt) * grad_b + tt * grad_a
+            d = eps / max(grad, 1e-12)
+            tol[mo] = min(max(d, min_tol), max_tol)
             below[mo] = b
             above[mo] = ab
             border[mo] = (rec[j, 4] & 1) != 0
@@ -228,4 +230,4 @@ def march_strip(wv, wb, we, w0, hp, r0, r1, levels):
         ch += 1
         offsets[ch] = mo
     return (ok, n_kept, offsets, level, key, end_key, inner_out, points, border, below, above,
-            t, eps_b, eps_a, grad_b, grad_a, skey, frame_levels)
+            tol, skey, frame_levels)
