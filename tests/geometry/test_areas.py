@@ -83,3 +83,17 @@ def test_polyline_areas_are_the_shoelace_sums_to_the_bit():
     one = pts[offsets[7] : offsets[8]]
     assert got[7] == pytest.approx(0.5 * float(np.dot(one[:, 0], np.roll(one[:, 1], -1))
                                              - np.dot(np.roll(one[:, 0], -1), one[:, 1])), rel=1e-9, abs=1e-6)
+
+
+def test_polyline_areas_kernel_is_its_numpy_twin_to_the_bit():
+    from isophote.geometry import areas_ref
+
+    rng = np.random.default_rng(11)
+    for n_loops, top in ((1, 2), (1, 50), (500, 60)):
+        sizes = rng.integers(1, top, n_loops)  # one-point loops included
+        offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        pts = rng.uniform(-500, 3000, (int(offsets[-1]), 2))
+        on_grid = rng.random(pts.shape[0]) < 0.3  # half-pixel points, as the march's are
+        pts[on_grid] = np.round(pts[on_grid] * 2) / 2
+        got = polyline_areas(pts, offsets)
+        assert got.tobytes() == areas_ref.polyline_areas(pts, offsets).tobytes()

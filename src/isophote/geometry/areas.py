@@ -14,6 +14,7 @@ the origin: equalisation's level areas).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .chains import segment_starts
 
@@ -76,20 +77,27 @@ def segment_moments(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 
 def polyline_areas(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """(C,) signed shoelace areas of closed polylines (loop k: ``points[offsets[k]:offsets[k+1]]``,
-    its last point joined back to its first)."""
-    x, y = points[:, 0], points[:, 1]
-    ends, starts = offsets[1:] - 1, offsets[:-1]
-    # cross[k] = x[k] y[next] - x[next] y[k], next the following point of k's loop; two
-    # arrays of a float a point (the loops of a whole channel come here)
-    cross = np.empty(points.shape[0])
-    t = np.empty(points.shape[0])
-    np.multiply(x[:-1], y[1:], out=cross[:-1])
-    np.multiply(x[1:], y[:-1], out=t[:-1])
-    cross[:-1] -= t[:-1]
-    del t
-    cross[ends] = x[ends] * y[starts] - x[starts] * y[ends]
-    np.cumsum(cross, out=cross)
-    before = np.zeros(starts.shape[0])  # the sum over the loops before each
-    after_first = starts > 0
-    before[after_first] = cross[starts[after_first] - 1]
-    return 0.5 * (cross[ends] - before)
+    its last point joined back to its first).
+
+    A kernel: one running sum of the cross products over all loops in order, each loop's
+    area half the sum's growth over it (the bits of areas_ref.polyline_areas, NumPy's
+    cumulative sum, on which the hierarchy's tie-breaks depend; no array a point: the loops
+    of a whole channel come here)."""
+    out = np.empty(offsets.shape[0] - 1)
+    p = np.ascontiguousarray(points, np.float64)
+    _polyline_areas(p[:, 0], p[:, 1], np.ascontiguousarray(offsets, np.int64), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _polyline_areas(x, y, offsets, out):
+    s = 0.0
+    for k in range(out.shape[0]):
+        a = offsets[k]
+        b = offsets[k + 1]
+        before = s if a > 0 else 0.0
+        for i in range(a, b):
+            j = i + 1 if i + 1 < b else a
+            c = x[i] * y[j] - x[j] * y[i]
+            s = c if i == 0 else s + c
+        out[k] = 0.5 * (s - before)
