@@ -44,9 +44,9 @@ BYTES_PER_HIERARCHY_POINT = 50
 BYTES_PER_REACH_POINT = 52
 OVERLAP_SHARE = 0.25
 # a strip's working set per sample of its window of the padded grid (encoder/strips.py: the
-# window's values, bands and errors and their mapping, 60 bytes; the cell table, links and
-# per-point temporaries, about 200 bytes a segment, at up to 0.9 segments a sample on
-# textured photographs)
+# window's values, bands and errors, computed in place, and the x pass's rows, about 26
+# bytes; the cell table, links, walk and per-point results, about 140 bytes a segment, at
+# up to 1.3 segments a sample on textured photographs: kept conservative)
 STRIP_SHARE = 0.125
 BYTES_PER_STRIP_SAMPLE = 256
 MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)

@@ -69,42 +69,37 @@ def pad_bands(grid, levels):
     """Padded values and bands: a ring of band 0 (value 0) around the grid. The band of v
     is the number of levels <= v (np.searchsorted(levels, v, "right"))."""
     hg, wg = grid.shape
-    nl = levels.shape[0]
     vals = np.zeros((hg + 2, wg + 2))
     band = np.zeros((hg + 2, wg + 2), np.int16)
     for r in range(hg):
         for c in range(wg):
             v = grid[r, c]
             vals[r + 1, c + 1] = v
-            lo = 0
-            hi = nl
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if levels[mid] <= v:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            band[r + 1, c + 1] = lo
+            band[r + 1, c + 1] = _band(levels, v)
     return vals, band
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _band(levels, v):
+    """The number of levels <= v (np.searchsorted(levels, v, "right"))."""
+    lo = 0
+    hi = levels.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if levels[mid] <= v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 @njit(cache=True, nogil=True)
 def band_of(vals, levels, out):
     """out[r, c] = the number of levels <= vals[r, c] (np.searchsorted(levels, v, "right"),
     pad_bands' rule), for a window of values."""
-    nl = levels.shape[0]
     for r in range(vals.shape[0]):
         for c in range(vals.shape[1]):
-            v = vals[r, c]
-            lo = 0
-            hi = nl
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if levels[mid] <= v:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            out[r, c] = lo
+            out[r, c] = _band(levels, vals[r, c])
 
 
 @njit(cache=True, nogil=True)
