@@ -63,7 +63,7 @@ def stages(plane, name, opts, memory, report):
     del p2, eps
     if report:
         held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
-                                                    "band", "values", "offsets"))
+                                                    "band", "offsets"))
         print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | | | | |")
     held = [iso]  # as encode_channel: the values go after the caps, the grid after the reaches
     del iso

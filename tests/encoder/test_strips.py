@@ -16,7 +16,7 @@ from isophote.options import EncodeOptions
 
 from test_encode_budget import texture
 
-FIELDS = ("points", "offsets", "border", "tol", "level", "above", "below", "band", "values")
+FIELDS = ("points", "offsets", "border", "tol", "level", "above", "below", "band")
 
 
 @pytest.mark.parametrize("h, w", [(1, 1), (1, 5), (2, 3), (5, 1), (7, 9), (12, 17)])
@@ -50,6 +50,10 @@ def test_strips_give_the_isolines_of_one_march(preset, name):
             a, b = getattr(ref, f), getattr(got, f)
             assert a.dtype == b.dtype and np.array_equal(a, b), (rows, f)
         assert got.base_band == ref.base_band
+        # the values are not held: the row source gives the whole grid's rows, any range
+        hp = ref.values.shape[0]
+        for w0, w1 in ((0, hp), (0, 1), (3, 9), (hp - 2, hp), (5, 5)):
+            assert np.array_equal(got.values(w0, w1), ref.values[w0:w1]), (rows, w0, w1)
 
 
 def test_a_flat_plane_has_only_frame_loops():
@@ -70,3 +74,31 @@ def test_band_of_is_searchsorted_right():
     band_of(v, levels, out)
     assert np.array_equal(out, np.searchsorted(levels, v, side="right"))
     assert out.tolist() == [[1, 2, 3, 4, 0, 0], [0, 2, 4, 0, 2, 3]]
+
+
+@pytest.mark.parametrize("step", [1, 2, 5, 1000])
+def test_caps_read_values_row_by_row_as_from_the_whole_grid(step):
+    """The caps' kernels reading the values a few rows at a time (the encoder computes them
+    again from the plane) give the whole grid's labels, statistics and sums to the bit."""
+    from isophote.encoder._kernels import regions as R
+
+    opts = EncodeOptions(preset="balanced").resolved()
+    yuv = rgb_to_yuv(texture(40, 50).astype(np.float64))
+    levels = channel_levels("Y", opts)
+    plane, eps = prepare_plane("Y", yuv[..., 0].copy(), 0.5, levels, opts)
+    got = strip_isolines(plane, eps, levels, opts, 7, 1)
+    vals = got.values(0, got.band.shape[0])
+    lab, m = R.label_regions(vals, got.band, levels)
+    lab2, m2 = R.label_regions_rows(got.values, got.band, levels, step)
+    assert m == m2 > 20 and np.array_equal(lab, lab2)
+    # the strips recorded the joins the values decide: the labels without the values
+    assert got.saddles.shape[0] > 0
+    lab3, m3 = R.label_regions_saddles(got.band, got.saddles[::-1])  # any order
+    assert m3 == m and np.array_equal(lab3, lab)
+    for a, b in zip(R.region_stats(lab, vals, m), R.region_stats_rows(lab, got.values, m, step)):
+        assert a.tobytes() == b.tobytes()
+    want = np.zeros(m, bool)
+    want[::3] = True
+    L = np.linspace(0, 255, m)
+    a, b = R.cap_sums(lab, vals, want, L, 4.0), R.cap_sums_rows(lab, got.values, want, L, 4.0, step)
+    assert a[2] and b[2] and a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()

@@ -13,7 +13,8 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
     fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
-What it does not bound yet: the padded values and bands of a channel (40 bytes a pixel),
+What it does not bound yet: the padded bands of a channel (8 bytes a pixel; the values
+are computed again from the plane where the caps read them, encoder/strips.py GridRows),
 its polylines (about 33 bytes a point, 1-4.5 points a pixel on textured photographs), and
 beside them the hierarchy's and the joint reaches' temporaries (about 12 bytes a point and
 16 a pixel each: the encoder drops the grid values after the caps and the grid after the

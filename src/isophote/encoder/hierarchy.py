@@ -23,7 +23,9 @@ from ..model import CAP_RAMP
 from ._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
 )
-from ._kernels.regions import cap_sums, label_regions, region_levels, region_stats
+from ._kernels.regions import (
+    cap_sums_rows, label_regions_rows, label_regions_saddles, region_deep, region_levels, value_sums_rows, whole,
+)
 from .isolines import Isolines
 
 
@@ -42,20 +44,33 @@ def loop_areas(iso: Isolines) -> np.ndarray:
     return polyline_areas(iso.points, iso.offsets)
 
 
+def value_rows(values):
+    """A row source (rows(w0, w1): padded rows [w0, w1) of the value grid) for an Isolines'
+    values: the grid itself, or the encoder's GridRows, which computes rows again from the
+    channel's plane (encoder/strips.py) rather than hold the grid."""
+    return values if callable(values) else whole(values)
+
+
 def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):
-    """Least-squares cap values for the profile of model.py.
+    """Least-squares cap values for the profile of model.py (``values``: the padded value
+    grid or a row source, value_rows).
 
     d is measured on the grid: the distance to the nearest sample of another region (not
     the padding: the border is no isoline) plus half a grid step, in pixels
     (_kernels/regions.py: cap_sums).
     """
+    rows = value_rows(values)
     want = np.zeros(m, bool)
     want[regs] = True
     L = np.zeros(m)
     L[regs] = level_value
-    num, den, has_edge = cap_sums(labels, values, want, L, float(ramp))
-    if not has_edge:
-        return np.array([float(values[1:-1, 1:-1].mean())] * len(regs))
+    num, den, has_edge = cap_sums_rows(labels, rows, want, L, float(ramp))
+    return _cap_fit(num, den, has_edge, rows, labels, regs, L)
+
+
+def _cap_fit(num, den, has_edge, rows, labels, regs, L):
+    if not has_edge:  # one region: the mean of the whole grid (made whole here, the same bits)
+        return np.array([float(rows(0, labels.shape[0])[1:-1, 1:-1].mean())] * len(regs))
     out = L[regs] + num[regs] / np.maximum(den[regs], 1e-12)
     return np.clip(out, 0.0, 255.0)
 
@@ -119,7 +134,8 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
 def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
     """build_hierarchy of the one Isolines in ``held`` (no one else may hold it), which is
     put back without its grid values once the caps are fitted (the values are read by the
-    caps alone): the parents' segment table is then built beside 8 bytes a sample less."""
+    caps alone): the parents' segment table is then built beside 8 bytes a sample less
+    (the grid), or a pixel (the plane the strips' row source computes them from)."""
     iso = held.pop()
     caps = _caps(iso, levels)
     held.append(replace(iso, values=None))
@@ -130,7 +146,11 @@ def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
 def _caps(iso: Isolines, levels: np.ndarray):
     """The caps on the labelled band grid: (n_regions, cap_band, cap_xy, cap_value)."""
     c = iso.n_loops
-    labels, m = label_regions(iso.values, iso.band, np.asarray(levels, np.float64))
+    rows = value_rows(iso.values)
+    if iso.saddles is not None:  # the strips recorded what the values decide
+        labels, m = label_regions_saddles(iso.band, iso.saddles)
+    else:
+        labels, m = label_regions_rows(rows, iso.band, np.asarray(levels, np.float64))
     # the levels of the crossings next to each region's samples
     # (border stretches are no isolines: the decoder takes no distance from them, so a region
     # that one level closes against the frame is a cap, whatever levels run along the frame)
@@ -138,18 +158,24 @@ def _caps(iso: Isolines, levels: np.ndarray):
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
-    deep, total, count = region_stats(labels, iso.values, m)
+    deep, count = region_deep(labels, m)
     is_cap &= count > 0  # the padding-only part of the root has no samples
     regs = np.flatnonzero(is_cap)
     wp = iso.band.shape[1]
     cap_band = iso.band.ravel()[deep[regs]].astype(np.int32)
     no_contour = hi[regs] < 0  # the mean
+    single = ~no_contour  # a least-squares profile (fit_cap_values)
+    level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
+    # one pass over the values: the regions' sums and the caps' least-squares sums
+    want = np.zeros(m, bool)
+    want[regs] = True
+    L = np.zeros(m)
+    L[regs] = level_value
+    total, num, den, has_edge = value_sums_rows(labels, rows, want, L, float(CAP_RAMP))
     with np.errstate(invalid="ignore", divide="ignore"):
         cap_value = total[regs] / count[regs]
     if len(regs):
-        single = ~no_contour  # a least-squares profile (fit_cap_values)
-        level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
-        fitted = fit_cap_values(labels, iso.values, m, regs, level_value, single)
+        fitted = _cap_fit(num, den, has_edge, rows, labels, regs, L)
         cap_value = np.where(single, fitted, cap_value)
     cap_idx = deep[regs].astype(np.int64)
     del labels, deep, total, count, lo, hi

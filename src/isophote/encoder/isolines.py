@@ -28,9 +28,13 @@ class Isolines:
     above, below : (N,) int32, per segment: the padded-grid samples at either end of the grid edge
         its start point lies on (the above one on the segment's left); for border segments the
         below one is padding.
-    band : (Hp, Wp) int16 padded band grid; values : (Hp, Wp) float64 padded grid (pad = 0).
+    band : (Hp, Wp) int16 padded band grid; values : (Hp, Wp) float64 padded grid (pad = 0), or
+        a row source giving rows of it (encoder/strips.py GridRows; hierarchy.value_rows).
     base_band : the band of the root region; the loops of levels below it would lie wholly on
         the image border and are left out (see model.py).
+    saddles : None, or the (n, 2) flat sample pairs of the regions' diagonal joins that the
+        values decide (_kernels/regions.py saddle_unions), so that the regions are labelled
+        without the values (the strips record them).
     """
 
     points: np.ndarray
@@ -41,8 +45,9 @@ class Isolines:
     above: np.ndarray
     below: np.ndarray
     band: np.ndarray
-    values: np.ndarray
+    values: object
     base_band: int = 0
+    saddles: np.ndarray | None = None
 
     @property
     def n_loops(self) -> int:

@@ -170,14 +170,21 @@ def _weight(dl, dr, p, scale):
     return (p * sl + 1.0) / (p * (sl + sr) + 2.0)
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _mid_value(base, d, dl, dr, p, scale, cubic):
+    """The Carrato midpoint after ``base`` (difference d to the next sample, dl and dr the
+    differences before and after), clamped between its two samples."""
+    mid = base + _weight(dl, dr, p, scale) * d
+    mid = mid - cubic * (dr - dl) / 16.0
+    nxt = base + d
+    return max(min(mid, max(base, nxt)), min(base, nxt))
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale, cubic):
     """Carrato midpoint after ``base`` (difference d to the next sample, dl and dr the
     differences before and after, de, dle, dre their error bounds) and its error."""
-    mid = base + _weight(dl, dr, p, scale) * d
-    mid = mid - cubic * (dr - dl) / 16.0
-    nxt = base + d
-    mid = max(min(mid, max(base, nxt)), min(base, nxt))
+    mid = _mid_value(base, d, dl, dr, p, scale, cubic)
     lo = np.inf
     hi = -np.inf
     for sl in (-1.0, 1.0):
@@ -200,25 +207,31 @@ def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale, cubic):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _x_pass(v, e, i, p, scale, cubic, g, ge):
+def _x_pass(v, e, i, p, scale, cubic, g, ge, errors):
     """Row 2i + 1 of the grid (pixel row i and the midpoints along x) into g, ge (columns
-    1 .. 2w - 1; the ring columns are left)."""
+    1 .. 2w - 1; the ring columns are left); errors False: the values alone (ge unused)."""
     w = v.shape[1]
     for j in range(w):
         g[2 * j + 1] = v[i, j]
-        ge[2 * j + 1] = e[i, j]
+        if errors:
+            ge[2 * j + 1] = e[i, j]
     for j in range(w - 1):
         d = v[i, j + 1] - v[i, j]
-        de = abs(e[i, j]) + abs(e[i, j + 1])
         dl = 0.0
-        dle = 0.0
         dr = 0.0
-        dre = 0.0
         if j > 0:
             dl = v[i, j] - v[i, j - 1]
-            dle = abs(e[i, j - 1]) + abs(e[i, j])
         if j + 2 < w:
             dr = v[i, j + 2] - v[i, j + 1]
+        if not errors:
+            g[2 * j + 2] = _mid_value(v[i, j], d, dl, dr, p, scale, cubic)
+            continue
+        de = abs(e[i, j]) + abs(e[i, j + 1])
+        dle = 0.0
+        dre = 0.0
+        if j > 0:
+            dle = abs(e[i, j - 1]) + abs(e[i, j])
+        if j + 2 < w:
             dre = abs(e[i, j + 1]) + abs(e[i, j + 2])
         g[2 * j + 2], ge[2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale, cubic)
 
@@ -254,10 +267,11 @@ def x_pass_rows(h: int, g0: int, g1: int) -> int:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge, xs, xe):
+def map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge, xs, xe, errors=True):
     """map_rows into g, ge (g1 - g0 rows of 2W + 1, views allowed), with xs, xe as the x
-    pass's scratch (x_pass_rows(H, g0, g1) rows of 2W + 1 each, or more): the encoder's
-    strips reuse one set of buffers strip after strip (encoder/strips.py)."""
+    pass's scratch (x_pass_rows(H, g0, g1) rows of 2W + 1 each, or more); errors False:
+    the values alone, the same bits (ge and xe unused: the encoder's caps read the grid's
+    values again, encoder/strips.py GridRows)."""
     h, w = v.shape
     w1 = 2 * w - 1
     n = g1 - g0
@@ -265,32 +279,39 @@ def map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge, xs, xe):
         return
     i_lo, i_hi = _x_rows(h, g0, g1)
     for i in range(i_lo, i_hi):
-        _x_pass(v, e, i, p, scale, cubic, xs[i - i_lo], xe[i - i_lo])
+        _x_pass(v, e, i, p, scale, cubic, xs[i - i_lo], xe[i - i_lo] if errors else xe[0], errors)
     for k in range(n):
         gr = min(max(g0 + k, 1), 2 * h - 1)  # the ring rows repeat their neighbours
         if gr % 2 == 1:
             a = (gr - 1) // 2 - i_lo
             for c in range(1, w1 + 1):
                 g[k, c] = xs[a, c]
-                ge[k, c] = xe[a, c]
+                if errors:
+                    ge[k, c] = xe[a, c]
         else:
             i = gr // 2 - 1
             a = i - i_lo
             for c in range(1, w1 + 1):
                 d = xs[a + 1, c] - xs[a, c]
-                de = abs(xe[a, c]) + abs(xe[a + 1, c])
                 dl = 0.0
-                dle = 0.0
                 dr = 0.0
-                dre = 0.0
                 if i > 0:
                     dl = xs[a, c] - xs[a - 1, c]
-                    dle = abs(xe[a - 1, c]) + abs(xe[a, c])
                 if i + 2 < h:
                     dr = xs[a + 2, c] - xs[a + 1, c]
+                if not errors:
+                    g[k, c] = _mid_value(xs[a, c], d, dl, dr, p, scale, cubic)
+                    continue
+                de = abs(xe[a, c]) + abs(xe[a + 1, c])
+                dle = 0.0
+                dre = 0.0
+                if i > 0:
+                    dle = abs(xe[a - 1, c]) + abs(xe[a, c])
+                if i + 2 < h:
                     dre = abs(xe[a + 1, c]) + abs(xe[a + 2, c])
                 g[k, c], ge[k, c] = _midpoint(xs[a, c], xe[a, c], d, de, dl, dle, dr, dre, p, scale, cubic)
         g[k, 0] = g[k, 1]
-        ge[k, 0] = ge[k, 1]
         g[k, w1 + 1] = g[k, w1]
-        ge[k, w1 + 1] = ge[k, w1]
+        if errors:
+            ge[k, 0] = ge[k, 1]
+            ge[k, w1 + 1] = ge[k, w1]

@@ -11,8 +11,10 @@ continue (precede) them. A chain that closes is rotated to its smallest start ke
 loops of all strips are put in the order of one march (by that key) at the end, so the
 Isolines are the same whatever the strip height (tests/encoder/test_strips.py).
 
-What is held whole: the padded values and bands (the hierarchy and the joint reaches read
-them) and the loops' per-point results (points, tolerances, samples, border flags). A
+What is held whole: the padded bands (the hierarchy and the joint reaches read them) and the
+loops' per-point results (points, tolerances, samples, border flags); the padded values,
+which only the hierarchy's caps read, are computed again from the plane when they are
+(GridRows: rows of them at a time), not held. A
 strip's working set (its window of the grid, the cell table, links, per-point temporaries)
 is bounded by its height, which the budget sets (encoder/budget.py: strip_rows).
 """
@@ -25,6 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from ._kernels.marching import band_of
+from ._kernels.regions import saddle_unions
 from ._kernels.strips import march_strip
 from .isolines import Isolines
 from .looporder import merge_loops
@@ -61,6 +64,34 @@ def grid_window(v, e, levels, opts, w0, w1, hp, wp):
     return wv, wb, we
 
 
+class GridRows:
+    """The padded value grid of a channel, row by row, computed again from its plane when
+    asked (rows(w0, w1): padded rows [w0, w1), the padding ring 0; the same bits as the
+    march's windows; the values alone, not their errors): the hierarchy's caps read the
+    values once (_kernels/regions.py value_sums_rows; the joins of regions that the values
+    decide are recorded by the march, saddle_unions), and holding them whole was 8 bytes a
+    sample, 32 a pixel, at the march's peak (issue 22). Holds the plane (8 bytes a pixel)."""
+
+    def __init__(self, v, levels, opts, hp, wp):
+        self.v, self.levels, self.opts, self.hp, self.wp = v, levels, opts, hp, wp  # the errors are not needed
+
+    def __call__(self, w0: int, w1: int) -> np.ndarray:
+        hp, wp, opts = self.hp, self.wp, self.opts
+        g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
+        wv = np.empty((w1 - w0, wp))
+        a = g0 + 1 - w0
+        rows = max(g1 - g0, 0)
+        scratch = np.empty((x_pass_rows(self.v.shape[0], g0, g1), wp - 2))
+        one = np.empty((1, wp - 2))  # the errors' arrays, unused
+        map_rows_into(self.v, self.v, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic),
+                      g0, g1, wv[a : a + rows, 1:-1], one, scratch, one, False)
+        wv[:a] = 0.0
+        wv[a + rows :] = 0.0
+        wv[:, 0] = 0.0
+        wv[:, -1] = 0.0
+        return wv
+
+
 class _Chain:
     """An open polyline carried between strips: its first segment's start key, the key its
     last segment ends on, its level, whether it has an isoline segment, and its pieces'
@@ -72,10 +103,10 @@ class _Chain:
         self.start, self.end, self.level, self.inner, self.frags = start, end, level, inner, frags
 
 
-def _march(v, e, levels, opts, hp, wp, r0, r1, vals, band):
-    """One strip: its rows of the grid's values and bands go into ``vals`` and ``band``
-    (strips' rows are disjoint); returns its loops (a part for merge_loops), its pieces and
-    its frame loops' levels."""
+def _march(v, e, levels, opts, hp, wp, r0, r1, band):
+    """One strip: its rows of the grid's bands go into ``band`` (strips' rows are disjoint);
+    returns its loops (a part for merge_loops), its pieces, its frame loops' levels and its
+    cells' saddle unions (_kernels/regions.py saddle_unions)."""
     w0, w1 = max(r0 - 1, 0), min(r1 + 2, hp)
     wv, wb, we = grid_window(v, e, levels, opts, w0, w1, hp, wp)
     (ok, n_kept, offsets, level, key, end_key, inner, points, border, below, above, tol, skey,
@@ -94,9 +125,10 @@ def _march(v, e, levels, opts, hp, wp, r0, r1, vals, band):
                     above=above[o0:o1].copy(), tol=tol[o0:o1].copy(), skey=skey[o0:o1].copy())
         pieces.append(_Chain(int(key[i]), int(end_key[i]), int(level[i]), bool(inner[i]), [frag]))
     ra, rb = r0, (r1 + 1 if r1 == hp - 1 else r1)
-    vals[ra:rb] = wv[ra - w0 : rb - w0]
     band[ra:rb] = wb[ra - w0 : rb - w0]
-    return loops, pieces, frame_levels
+    # the regions' diagonal joins that the values decide, while the values are at hand
+    saddles = saddle_unions(wv, wb, w0, hp, r0, r1, np.ascontiguousarray(levels, np.float64))
+    return loops, pieces, frame_levels, saddles
 
 
 def _join(carried: dict, pieces: list, closed: list, frame: list) -> dict:
@@ -167,12 +199,11 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
     h, w = v.shape
     hp, wp = 2 * h + 3, 2 * w + 3
     rows = max(int(rows), 1)
-    vals = np.zeros((hp, wp))
     band = np.zeros((hp, wp), np.int16)
     bounds = [(r0, min(r0 + rows, hp - 1)) for r0 in range(0, hp - 1, rows)]
-    parts, frame, carried = [], [], {}
+    parts, frame, carried, saddles = [], [], {}, []
     def march(r0, r1):
-        return _march(v, e, levels, opts, hp, wp, r0, r1, vals, band)
+        return _march(v, e, levels, opts, hp, wp, r0, r1, band)
 
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         pending = deque()
@@ -182,7 +213,8 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
             if b is not None:
                 pending.append(pool.submit(march, *b))
         while pending:
-            loops, pieces, frame_levels = pending.popleft().result()
+            loops, pieces, frame_levels, strip_saddles = pending.popleft().result()
+            saddles.append(strip_saddles)
             b = next(todo, None)
             if b is not None:
                 pending.append(pool.submit(march, *b))
@@ -208,4 +240,5 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
                       offsets=np.zeros(1, np.int64))
     else:
         merged = merge_loops(parts)
-    return Isolines(band=band, values=vals, base_band=base, **merged)
+    return Isolines(band=band, values=GridRows(v, levels, opts, hp, wp), base_band=base,
+                    saddles=np.concatenate(saddles) if saddles else np.zeros((0, 2), np.int64), **merged)

@@ -29,16 +29,81 @@ def _diag_band(v0, v1, v2, v3, levels):
     return np.searchsorted(levels, s, side="right")
 
 
-@njit(cache=True, nogil=True)
+ROWS = 256  # padded grid rows of values a row source is asked for at a time
+
+
+def whole(vals):
+    """A row source over a whole padded value grid: rows(w0, w1) is vals[w0:w1]."""
+    return lambda w0, w1: vals[w0:w1]
+
+
 def label_regions(vals, band, levels):
-    """(Hp, Wp) labels (int32, 0..R-1) and R."""
+    """(Hp, Wp) labels (int32, 0..R-1) and R, of the padded value grid ``vals``."""
+    return label_regions_rows(whole(vals), band, levels)
+
+
+def label_regions_rows(rows, band, levels, step=ROWS):
+    """label_regions with the values read from a row source: rows(w0, w1) gives padded rows
+    [w0, w1) of the value grid. The same sets (labels are the sets' scan order, whatever
+    the order of the unions: shared/unionfind.py)."""
     hp, wp = band.shape
-    n = hp * wp
-    parent = np.empty(n, np.int32)  # the padded grid of MAX_PIXELS has under 2**31 samples
-    for i in range(n):
-        parent[i] = i
+    parent = _unions_by_band(band)
+    for r0 in range(1, hp - 2, step):
+        r1 = min(r0 + step, hp - 2)
+        _diagonals(band, 0, rows(r0, r1 + 1), r0, r0, r1, levels, 0, parent, _NO_PAIRS)
+    m = label_in_place(parent)
+    return parent.reshape(hp, wp), m
+
+
+def label_regions_saddles(band, saddles):
+    """label_regions without the values: the diagonal unions the bands decide are made here,
+    those the bilinear saddle decides are given (``saddles``: (n, 2) flat sample pairs,
+    saddle_unions' of every strip, any order)."""
+    hp, wp = band.shape
+    parent = _unions_by_band(band)
+    _diagonals(band, 0, np.zeros((0, 0)), 0, 1, max(hp - 2, 1), np.zeros(0), 1, parent, _NO_PAIRS)
+    _union_pairs(parent, saddles)
+    m = label_in_place(parent)
+    return parent.reshape(hp, wp), m
+
+
+def saddle_unions(wv, wb, w0, hp, r0, r1, levels):
+    """The diagonal unions of label_regions that the bilinear saddle decides, for the cells
+    whose top row r is in [r0, r1) of a padded grid of hp rows (wv, wb: padded value and
+    band rows from w0 on, holding rows r0 .. r1): (n, 2) int64 flat sample pairs. The march records them strip by strip,
+    so the hierarchy labels the regions without the values (encoder/strips.py)."""
+    r0, r1 = max(r0, 1), min(r1, hp - 2)
+    if r1 <= r0:
+        return np.zeros((0, 2), np.int64)
+    n = _diagonals(wb, w0, wv, w0, r0, r1, levels, 2, _NO_PARENT, _NO_PAIRS)
+    out = np.empty((n, 2), np.int64)
+    _diagonals(wb, w0, wv, w0, r0, r1, levels, 2, _NO_PARENT, out)
+    return out
+
+
+_NO_PAIRS = np.zeros((0, 2), np.int64)
+_NO_PARENT = np.zeros(0, np.int32)
+
+
+def _unions_by_band(band):
+    hp, wp = band.shape
+    # the padded grid of MAX_PIXELS has under 2**31 samples
+    parent = np.arange(hp * wp, dtype=np.int32)
+    _union_bands(parent, band)
+    return parent
+
+
+@njit(cache=True, nogil=True)
+def _union_pairs(parent, pairs):
+    for i in range(pairs.shape[0]):
+        union(parent, pairs[i, 0], pairs[i, 1])
+
+
+@njit(cache=True, nogil=True)
+def _union_bands(parent, band):
     # the padding ring joins nothing: regions are connected inside the image only, as the
     # decoder sees them (each padding sample stays a region of its own, with no samples)
+    hp, wp = band.shape
     for r in range(1, hp - 1):
         for c in range(1, wp - 1):
             i = r * wp + c
@@ -47,12 +112,25 @@ def label_regions(vals, band, levels):
                 union(parent, i, i + 1)
             if r + 1 < hp - 1 and band[r + 1, c] == b:
                 union(parent, i, i + wp)
-    for r in range(1, hp - 2):
+
+
+@njit(cache=True, nogil=True)
+def _diagonals(band, bw0, wv, w0, r0, r1, levels, mode, parent, out):
+    """The diagonal unions of the cells whose top row r is in [r0, r1) (band: rows from bw0
+    on; wv: padded value rows from w0 on, holding rows r0 .. r1). Diagonal neighbours of
+    equal band b join when the other two corners are not both on one side of b (the bands
+    decide), or when they are and the cell's bilinear saddle value lies in b (the values
+    decide). mode 0: make every union; 1: those the bands decide (wv unread); 2: write
+    those the values decide to out (as many as fit) and return their count."""
+    wp = band.shape[1]
+    n = 0
+    for r in range(r0, r1):
+        t = r - bw0
         for c in range(1, wp - 2):
-            b0 = band[r, c]
-            b1 = band[r, c + 1]
-            b2 = band[r + 1, c + 1]
-            b3 = band[r + 1, c]
+            b0 = band[t, c]
+            b1 = band[t, c + 1]
+            b2 = band[t + 1, c + 1]
+            b3 = band[t + 1, c]
             for k in range(2):
                 if k == 0:
                     ba, bc, bo1, bo2 = b0, b2, b1, b3
@@ -63,10 +141,22 @@ def label_regions(vals, band, levels):
                 if ba != bc or bo1 == ba or bo2 == ba:
                     continue
                 same_side = (bo1 > ba and bo2 > ba) or (bo1 < ba and bo2 < ba)
-                if not same_side or _diag_band(vals[r, c], vals[r, c + 1], vals[r + 1, c + 1], vals[r + 1, c], levels) == ba:
-                    union(parent, ia, ic)
-    m = label_in_place(parent)
-    return parent.reshape(hp, wp), m
+                if not same_side:
+                    if mode != 2:
+                        union(parent, ia, ic)
+                    continue
+                if mode == 1:
+                    continue
+                q = r - w0
+                if _diag_band(wv[q, c], wv[q, c + 1], wv[q + 1, c + 1], wv[q + 1, c], levels) == ba:
+                    if mode == 0:
+                        union(parent, ia, ic)
+                    else:
+                        if n < out.shape[0]:
+                            out[n, 0] = ia
+                            out[n, 1] = ic
+                        n += 1
+    return n
 
 
 @njit(cache=True, nogil=True)
@@ -78,19 +168,60 @@ def _is_edge(labels, r, c, h, w):
             or (r + 1 < h and labels[r + 2, c + 1] != k) or (r > 0 and labels[r, c + 1] != k))
 
 
-@njit(cache=True, nogil=True)
 def region_stats(labels, vals, m):
     """Per region (ignoring the padding ring): its deepest sample (flat index), sum and
     count. The deepest sample is the one farthest, in city-block grid steps,
     from every edge sample (an image sample with a 4-neighbour of another region; the padding
     is no neighbour, as in cap_sums), the first in scan order among equals; with no edge at
     all, the first sample."""
+    return region_stats_rows(labels, whole(vals), m)
+
+
+def region_stats_rows(labels, rows, m, step=ROWS):
+    """region_stats with the values read from a row source (label_regions_rows), summed in
+    the same order."""
+    deep, count = region_deep(labels, m)
+    total, _, _, _ = value_sums_rows(labels, rows, np.zeros(m, np.bool_), np.zeros(m), 1.0, step)
+    return deep, total, count
+
+
+def region_deep(labels, m):
+    """region_stats' deepest sample and count per region (no values read)."""
+    deep = np.full(m, -1, np.int64)
+    count = np.zeros(m, np.int64)
+    _region_deep(labels, _chamfer(labels), deep, count)
+    return deep, count
+
+
+def value_sums_rows(labels, rows, want, L, ramp, step=ROWS):
+    """What the caps read of the values, in one pass over a row source: each region's sum
+    of values (region_stats' total) and, for the regions with want, cap_sums' num and den.
+    Returns (total, num, den, has_edge); has_edge False (one region covers the grid, or no
+    region is wanted) leaves num and den zeros. The same sums in the same order as
+    region_stats and cap_sums."""
+    hp, wp = labels.shape
+    m = want.shape[0]
+    total = np.zeros(m)
+    num = np.zeros(m)
+    den = np.zeros(m)
+    if want.any():
+        edge, hd, dmax, rad, far, has_edge = _cap_distances(labels, want, ramp)
+    else:
+        edge, hd, dmax, rad, far, has_edge = (np.zeros((0, 0), np.bool_), np.zeros((0, 0), np.int16),
+                                              np.zeros(m), 0, 1, False)
+    for r0 in range(1, hp - 1, step):
+        r1 = min(r0 + step, hp - 1)
+        _value_sums(labels, rows(r0, r1), r0, r0, r1, total, want, has_edge, edge, hd, dmax, rad, far,
+                    float(ramp), L, num, den)
+    return total, num, den, has_edge
+
+
+@njit(cache=True, nogil=True)
+def _chamfer(labels):
+    """City-block steps of each image sample to the nearest edge sample (at most h + w + 1)."""
     hp, wp = labels.shape
     h = hp - 2
     w = wp - 2
-    deep = np.full(m, -1, np.int64)
-    total = np.zeros(m)
-    count = np.zeros(m, np.int64)
     far = h + w + 1
     d = np.empty((h, w), np.int32)  # city-block steps: far below 2**31 on any grid that fits in memory
     for r in range(h):  # forward chamfer pass: edges are 0, the rest 1 + the nearer of up, left
@@ -112,17 +243,37 @@ def region_stats(labels, vals, m):
             if c + 1 < w and d[r, c + 1] + 1 < v:
                 v = d[r, c + 1] + 1
             d[r, c] = min(v, far)
-    best = np.full(m, -1, np.int64)
+    return d
+
+
+@njit(cache=True, nogil=True)
+def _region_deep(labels, d, deep, count):
+    """region_stats' deepest sample (the first in scan order among equals) and count."""
+    hp, wp = labels.shape
+    best = np.full(deep.shape[0], -1, np.int64)
     for r in range(1, hp - 1):
         for c in range(1, wp - 1):
             k = labels[r, c]
-            i = r * wp + c
             if d[r - 1, c - 1] > best[k]:
                 best[k] = d[r - 1, c - 1]
-                deep[k] = i
-            total[k] += vals[r, c]
+                deep[k] = r * wp + c
             count[k] += 1
-    return deep, total, count
+
+
+@njit(cache=True, nogil=True)
+def _value_sums(labels, wv, w0, r0, r1, total, want, has_edge, edge, hd, dmax, rad, far, ramp, L, num, den):
+    """value_sums_rows over padded rows [r0, r1) (wv: padded value rows from w0 on)."""
+    h = labels.shape[0] - 2
+    wp = labels.shape[1]
+    for r in range(r0, r1):
+        for c in range(1, wp - 1):
+            k = labels[r, c]
+            v = wv[r - w0, c]
+            total[k] += v
+            if has_edge and want[k]:
+                f = min(1.0, _edge_distance(edge, hd, r - 1, c - 1, h, rad, far, ramp) / max(min(dmax[k], ramp), 1e-9))
+                num[k] += (v - L[k]) * f
+                den[k] += f * f
 
 
 @njit(cache=True, nogil=True)
@@ -142,7 +293,6 @@ def _edge_distance(edge, hd, r, c, h, rad, far, ramp):
     return (math.sqrt(best) + 0.5) * 0.5 if best <= far else ramp
 
 
-@njit(cache=True, nogil=True)
 def cap_sums(labels, vals, want, L, ramp):
     """Least-squares sums of the cap profile fit (encoder/hierarchy.py) for the regions k
     with want[k]: num[k] = sum (v - L[k]) f and den[k] = sum f^2 over the region's samples,
@@ -157,12 +307,26 @@ def cap_sums(labels, vals, want, L, ramp):
     each sample, R + 1.5 >= 2 ramp grid steps; a sample with no edge within R + 1 steps is
     given d = ramp.
     """
+    return cap_sums_rows(labels, whole(vals), want, L, ramp)
+
+
+def cap_sums_rows(labels, rows, want, L, ramp, step=ROWS):
+    """cap_sums with the values read from a row source (label_regions_rows), summed in the
+    same order."""
+    if not want.any():  # nothing to sum: cap_sums still says whether the grid has an edge
+        return np.zeros(want.shape[0]), np.zeros(want.shape[0]), bool(_cap_distances(labels, want, ramp)[5])
+    _, num, den, has_edge = value_sums_rows(labels, rows, want, L, ramp, step)
+    return num, den, has_edge
+
+
+@njit(cache=True, nogil=True)
+def _cap_distances(labels, want, ramp):
+    """cap_sums' edge samples, row distances to them and each wanted region's dmax: (edge,
+    hd, dmax, rad, far, has_edge)."""
     hp, wp = labels.shape
     h = hp - 2
     w = wp - 2
     m = want.shape[0]
-    num = np.zeros(m)
-    den = np.zeros(m)
     edge = np.zeros((h, w), np.bool_)
     has_edge = False
     for r in range(h):
@@ -170,10 +334,11 @@ def cap_sums(labels, vals, want, L, ramp):
             e = _is_edge(labels, r, c, h, w)
             edge[r, c] = e
             has_edge = has_edge or e
-    if not has_edge:
-        return num, den, False
     rad = max(0, int(math.ceil(2.0 * ramp - 1.5)))
     far = (rad + 1) * (rad + 1)
+    dmax = np.zeros(m)
+    if not has_edge:
+        return edge, np.empty((0, 0), np.int16), dmax, rad, far, False
     # the window's nearest edge sample, separably: hd[r, c] is the distance along row r to
     # the nearest edge sample within rad columns of c (rad + 1: none), from one sweep each
     # way; the window minimum of dr^2 + dc^2 is then the minimum over its rows of
@@ -193,21 +358,12 @@ def cap_sums(labels, vals, want, L, ramp):
             if nxt - c < hd[r, c]:
                 hd[r, c] = nxt - c
     # d is found twice, for dmax and for the sums, rather than held (8 bytes a sample)
-    dmax = np.zeros(m)
     for r in range(h):
         for c in range(w):
             k = labels[r + 1, c + 1]
             if want[k]:
                 dmax[k] = max(dmax[k], _edge_distance(edge, hd, r, c, h, rad, far, ramp))
-    for r in range(h):
-        for c in range(w):
-            k = labels[r + 1, c + 1]
-            if not want[k]:
-                continue
-            f = min(1.0, _edge_distance(edge, hd, r, c, h, rad, far, ramp) / max(min(dmax[k], ramp), 1e-9))
-            num[k] += (vals[r + 1, c + 1] - L[k]) * f
-            den[k] += f * f
-    return num, den, True
+    return edge, hd, dmax, rad, far, True
 
 
 @njit(cache=True, nogil=True)
