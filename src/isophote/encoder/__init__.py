@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ._kernels.anchors import joint_reach
+from ._kernels.anchors import joint_moves, joint_reach
 from ..shared.grid import QUANT
 from ._kernels.fit import QUANT as FIT_QUANT
 from .. import threads
@@ -242,7 +242,7 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     if iso.n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
     tol = fit_tolerances(iso.tol, np.empty_like(iso.tol))
-    return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_reach(iso, tol), snap, max_points)
+    return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_moves(iso, tol), snap, max_points)
 
 
 def fit_held(held: list, snap: float, max_points: int | None = None):
@@ -252,10 +252,10 @@ def fit_held(held: list, snap: float, max_points: int | None = None):
     flags, tolerances and reaches (same result)."""
     iso = held.pop()
     tol = fit_tolerances(iso.tol, iso.tol)
-    reach = _joint_reach(iso, tol)
+    moves = _joint_moves(iso, tol)
     points, offsets, border = iso.points, iso.offsets, iso.border
     del iso
-    return fit_loops(points, offsets, border, tol, reach, snap, max_points)
+    return fit_loops(points, offsets, border, tol, moves, snap, max_points)
 
 
 CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)
@@ -270,10 +270,11 @@ def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
-def fit_loops(points, offs, border, tol, reach, snap: float, max_points: int | None = None):
+def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None):
     """Fit the loops of an Isolines (its points, offsets and border flags) given the fitter's
-    tolerances (fit_tolerances) and the joints' reaches (_joint_reach, before the joint
-    rounding; capped here, in place). Returns (points, offsets, border) in the Channel layout.
+    tolerances (fit_tolerances) and which joints may move (_joint_moves; their reaches,
+    _joint_reach's, are made batch by batch and capped by the joint rounding there).
+    Returns (points, offsets, border) in the Channel layout.
 
     Each loop's chain depends on its own polyline, tolerances and joint reaches alone (the
     reaches, which look at the crossings of other loops, are found first for all), so the
@@ -282,13 +283,8 @@ def fit_loops(points, offs, border, tol, reach, snap: float, max_points: int | N
     n_loops = offs.shape[0] - 1
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    for a in range(0, tol.shape[0], CHUNK):  # a joint stays within its point's tolerance
-        r = reach[a : a + CHUNK]
-        cap = tol[a : a + CHUNK] - _JOINT_ROUNDING
-        np.maximum(cap, 0.0, out=cap)
-        np.minimum(r, cap, out=r)
     if max_points is None or offs[-1] <= max_points:
-        return _fit_batch(points, offs, border, tol, reach, snap)
+        return _fit_batch(points, offs, border, tol, _reaches(tol, moves), snap)
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
                                                           "right") - 1, [n_loops]]))
     cuts = cuts[(cuts >= 0)]
@@ -298,12 +294,22 @@ def fit_loops(points, offs, border, tol, reach, snap: float, max_points: int | N
             continue
         o0, o1 = offs[i0], offs[i1]
         p, o, b = _fit_batch(points[o0:o1], offs[i0 : i1 + 1] - o0, border[o0:o1],
-                             tol[o0:o1], reach[o0:o1], snap)
+                             tol[o0:o1], _reaches(tol[o0:o1], moves[o0:o1]), snap)
         pts.append(p)
         off.append(o[1:] + base)
         brd.append(b)
         base += int(o[-1])
     return np.concatenate(pts), np.concatenate(off), np.concatenate(brd)
+
+
+def _reaches(tol, moves):
+    """The joints' reaches of a batch: ANCHOR_REACH of the tolerance where the joint may
+    move (_joint_reach's values), capped so that a joint stays within its point's tolerance
+    after the file's rounding."""
+    reach = np.where(moves, ANCHOR_REACH * tol, 0.0)
+    cap = tol - _JOINT_ROUNDING
+    np.maximum(cap, 0.0, out=cap)
+    return np.minimum(reach, cap, out=reach)
 
 
 def _fit_batch(iso_points, offs, iso_border, tol, reach, snap):
@@ -407,6 +413,12 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
     return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
+                       iso.band.shape[1], ANCHOR_REACH)
+
+
+def _joint_moves(iso: Isolines, tol: np.ndarray) -> np.ndarray:
+    """Which crossings _joint_reach lets move (a byte a crossing)."""
+    return joint_moves(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
                        iso.band.shape[1], ANCHOR_REACH)
 
 

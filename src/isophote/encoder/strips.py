@@ -116,7 +116,10 @@ def _march(v, e, levels, opts, hp, wp, r0, r1, band):
     if not ok:
         raise RuntimeError("marching squares produced an open contour")  # a bug, never input
     m = int(offsets[n_kept])
-    loops = dict(points=points[:m], border=border[:m], below=below[:m], above=above[:m], tol=tol[:m],
+    # the loops' points are held until the merge: copies of their part alone, so that the
+    # kernel's arrays (which also hold the pieces' points, copied below) go with the strip
+    loops = dict(points=points[:m].copy(), border=border[:m].copy(), below=below[:m].copy(),
+                 above=above[:m].copy(), tol=tol[:m].copy(),
                  level=level[:n_kept], offsets=offsets[: n_kept + 1], keys=key[:n_kept])
     pieces = []
     for i in range(n_kept, level.shape[0]):

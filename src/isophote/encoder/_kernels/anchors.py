@@ -40,7 +40,19 @@ def _nearer_end(points, below, above, band, lev, k, wp):
 
 @njit(cache=True, nogil=True)
 def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac):
-    """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others.
+    """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
+    moves = joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac)
+    reach = np.zeros(points.shape[0])
+    for k in range(points.shape[0]):
+        if moves[k]:
+            reach[k] = frac * tol[k]
+    return reach
+
+
+@njit(cache=True, nogil=True)
+def joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac):
+    """(N,) bool: the crossings that may move (joint_reach's, a byte a crossing: the encoder
+    holds this and makes the reaches batch by batch).
 
     Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]. Besides the result
     the kernel holds 4 bytes a crossing (the per-sample chains' links) and 4 a sample (their
@@ -72,7 +84,7 @@ def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac):
     ck = np.empty(longest, np.int64)  # one sample's candidates: point, loop, distance
     cl = np.empty(longest, np.int64)
     cd = np.empty(longest)
-    reach = np.zeros(n)
+    moves = np.zeros(n, np.bool_)
     for s in range(size):
         q = head[s]
         if q < 0:
@@ -100,5 +112,5 @@ def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac):
                 if cl[j] == cl[i] and (cd[j] < cd[i] or (cd[j] == cd[i] and ck[j] < ck[i])):
                     before += 1
             if before < PER_LOOP and loop_level[cl[i]] == loop_level[cl[best]]:
-                reach[ck[i]] = frac * tol[ck[i]]
-    return reach
+                moves[ck[i]] = True
+    return moves
