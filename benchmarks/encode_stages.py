@@ -65,10 +65,10 @@ def stages(plane, name, opts, memory, report):
         held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
                                                     "band", "offsets"))
         print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | | | | |")
-    held = [iso]  # as encode_channel: the values go after the caps, the grid after the reaches
+    held = [iso]  # as encode_channel: the tolerances go after the fit, the values after the caps
     del iso
+    stage("fit (reaches, then batches)", lambda: E.fit_first(held, opts.snap, budget.fit_batch_points(memory)))
     stage("hierarchy", lambda: hierarchy.build_hierarchy_held(held, lev))
-    stage("fit (reaches, then batches)", lambda: E.fit_held(held, opts.snap, budget.fit_batch_points(memory)))
 
 
 def main(argv=None) -> int:

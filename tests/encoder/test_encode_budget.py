@@ -73,9 +73,9 @@ def test_fit_batches_give_the_chains_of_one_batch():
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])
 def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
-    """The encoder's path that drops what it has read (the grid values after the caps, the
-    grid, bands and samples after the joint reaches, the tolerances made the fitter's in
-    place) gives the hierarchy and chains of build_hierarchy and fit_isolines, batched or not."""
+    """The encoder's path that drops what it has read (the tolerances, made the fitter's in
+    place, after the fit; the grid values after the caps) gives the hierarchy and chains of
+    build_hierarchy and fit_isolines, batched or not, in either order."""
     from isophote.encoder.hierarchy import build_hierarchy, build_hierarchy_held
 
     opts, levels, grid, grid_eps = _plane_grid(preset)
@@ -94,10 +94,18 @@ def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
             a, b = getattr(tree, f), getattr(got, f)
             assert a.dtype == b.dtype and np.array_equal(a, b), f
         assert got.n_regions == tree.n_regions
-        fitted = E.fit_held(held, opts.snap, max_points)
-        assert held == []
+        fitted = E.fit_first(held, opts.snap, max_points)
         for a, b in zip(chains, fitted):
             assert a.dtype == b.dtype and np.array_equal(a, b), max_points
+        # the encoder's order: the fit first (the tolerances go), then the hierarchy
+        held = [fresh()]
+        fitted = E.fit_first(held, opts.snap, max_points)
+        assert len(held) == 1 and held[0].tol is None and held[0].band is not None
+        for a, b in zip(chains, fitted):
+            assert a.dtype == b.dtype and np.array_equal(a, b), max_points
+        got = build_hierarchy_held(held, levels)
+        for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
+            assert np.array_equal(getattr(tree, f), getattr(got, f)), f
 
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])

@@ -245,8 +245,9 @@ def test_cap_sums_far_from_edges_and_without_edges():
 
 def loop_segments(loops, h):
     """The loops' segments, split at half rows, as the hierarchy holds them: (x, y, nxt,
-    seg_loop, row, n_rows), segment s running from point s to point nxt[s], row being each
-    segment's half-pixel row."""
+    seg_loop, row, n_rows, loop_start), segment s running from point s to point nxt[s] (the
+    kernels find it from loop_start, each loop's first point), row being each segment's
+    half-pixel row."""
     split = [split_at_half_rows(p) for p in loops]
     x = np.concatenate([p[:, 0] for p in split])
     y = np.concatenate([p[:, 1] for p in split])
@@ -255,7 +256,7 @@ def loop_segments(loops, h):
     seg_loop = np.concatenate([np.full(len(p), k) for k, p in enumerate(split)]).astype(np.int32)
     n_rows = int(2 * h) + 1
     row = np.clip(np.floor(np.minimum(y, y[nxt]) * 2).astype(np.int64), 0, n_rows - 1)
-    return x, y, nxt, seg_loop, row, n_rows
+    return x, y, nxt, seg_loop, row, n_rows, start[:-1].astype(np.int64)
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -265,7 +266,7 @@ def test_innermost_enclosing_matches_its_twin(seed):
     loops = nested_loops(rng, w, h)
     area = np.array([shoelace(p) for p in loops])
     level = rng.integers(0, 5, size=len(loops)).astype(np.int64)
-    x0, y0, nxt, seg_loop, row, n_rows = loop_segments(loops, h)
+    x0, y0, nxt, seg_loop, row, n_rows, loop_start = loop_segments(loops, h)
     assert np.all(np.maximum(y0, y0[nxt]) <= (row + 1) / 2 + 1e-12)  # one row per segment
     row_order = np.argsort(row, kind="stable")
     row_start = np.searchsorted(row[row_order], np.arange(n_rows + 1))
@@ -273,7 +274,7 @@ def test_innermost_enclosing_matches_its_twin(seed):
     px = np.concatenate([rng.uniform(0, w, 200), [0.5 * (p[0, 0] + p[1, 0]) for p in loops]])
     py = np.concatenate([rng.uniform(0, h, 200), [0.5 * (p[0, 1] + p[1, 1]) for p in loops]])
     exclude = np.concatenate([np.full(200, -1), np.arange(len(loops))]).astype(np.int64)
-    fast = innermost_enclosing(px, py, exclude, x0, y0, nxt, seg_loop, row_start, row_order,
+    fast = innermost_enclosing(px, py, exclude, x0, y0, loop_start, seg_loop, row_start, row_order,
                                area, level, n_rows)
     ref = innermost_enclosing_ref(px, py, exclude, loops, area, level)
     assert np.array_equal(fast, ref)
@@ -303,7 +304,7 @@ def test_innermost_enclosing_rows_equals_rays(seed):
     loops = [p[np.any(p != np.roll(p, 1, axis=0), axis=1)] for p in loops]
     area = np.array([shoelace(p) for p in loops])
     level = rng.integers(0, 3, size=len(loops)).astype(np.int64)
-    x, y, nxt, seg_loop, row, n_rows = loop_segments(loops, h)
+    x, y, nxt, seg_loop, row, n_rows, loop_start = loop_segments(loops, h)
     row_start, row_order = bucket_rows(row, n_rows)
     assert np.array_equal(row_order, np.argsort(row, kind="stable"))
     assert np.array_equal(row_start, np.searchsorted(row[row_order], np.arange(n_rows + 1)))
@@ -311,7 +312,7 @@ def test_innermost_enclosing_rows_equals_rays(seed):
     px = np.concatenate([rng.uniform(-1, w + 1, n), np.round(rng.uniform(0, w, n) * 2) / 2])
     py = np.concatenate([rng.uniform(-1, h + 1, n), np.round(rng.uniform(0, h, n) * 2) / 2])
     exclude = np.where(rng.random(2 * n) < 0.2, rng.integers(0, len(loops), 2 * n), -1).astype(np.int64)
-    args = (x, y, nxt, seg_loop, row_start, row_order, area, level, n_rows)
+    args = (x, y, loop_start, seg_loop, row_start, row_order, area, level, n_rows)
     rays = innermost_enclosing(px, py, exclude, *args)
     rows = innermost_enclosing_rows(px, py, exclude, *args)
     assert np.array_equal(rows, rays)

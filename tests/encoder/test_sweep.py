@@ -6,7 +6,7 @@ import pytest
 import skimage
 
 from isophote.encoder._kernels.enclose import innermost_enclosing
-from isophote.encoder.hierarchy import build_hierarchy, loop_areas, segment_table
+from isophote.encoder.hierarchy import build_hierarchy, loop_areas, segment_table, successors
 from isophote.encoder.isolines import find_isolines
 from isophote.encoder.levels import preset_levels
 from isophote.encoder.mapping import map_pixels
@@ -33,7 +33,10 @@ def traced(name):
 
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_sweep_parents_equal_ray_parents(name):
-    iso, h, (x0, y0, nxt, seg_loop, rs, ro, n_rows) = traced(name)
+    iso, h, (x0, y0, loop_start, seg_loop, rs, ro, n_rows) = traced(name)
+    nxt = np.arange(1, len(x0) + 1)  # the plain successor: the next point, the first after the last
+    nxt[iso.offsets[1:] - 1] = iso.offsets[:-1]
+    assert np.array_equal(successors(np.arange(len(x0)), iso.offsets, seg_loop), nxt)
     x1, y1 = x0[nxt], y0[nxt]
     cand = np.flatnonzero(~iso.border & (y0 != y1))
     loops, first = np.unique(seg_loop[cand], return_index=True)
@@ -41,7 +44,7 @@ def test_sweep_parents_equal_ray_parents(name):
     ref = np.full(iso.n_loops, -1, np.int64)
     ref[loops] = innermost_enclosing(
         0.5 * (x0[q] + x1[q]), 0.5 * (y0[q] + y1[q]), loops.astype(np.int64),
-        x0, y0, nxt, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+        x0, y0, loop_start, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
     )
     assert iso.n_loops > 20
     assert np.array_equal(h.parent, ref)
@@ -50,10 +53,10 @@ def test_sweep_parents_equal_ray_parents(name):
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_cap_contours_by_rows_equal_rays(name):
     """The caps' enclosing contours (innermost_enclosing_rows) are the ray query's."""
-    iso, h, (x, y, nxt, seg_loop, rs, ro, n_rows) = traced(name)
+    iso, h, (x, y, loop_start, seg_loop, rs, ro, n_rows) = traced(name)
     ref = innermost_enclosing(
         h.cap_xy[:, 0].copy(), h.cap_xy[:, 1].copy(), np.full(len(h.cap_xy), -1, np.int64),
-        x, y, nxt, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+        x, y, loop_start, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
     )
     assert len(ref) > 5 and (ref >= 0).any()
     assert np.array_equal(h.cap_contour, ref)

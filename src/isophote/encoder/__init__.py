@@ -191,10 +191,11 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
             tree = tree.result()
     else:  # one after the other: their temporaries do not add up (same result)
-        held = [iso]  # the grid values go after the caps, the grid after the reaches
+        held = [iso]  # the tolerances go after the fit, the grid values after the caps
         del iso
+        points, offsets, border = fit_first(held, opts.snap, fit_batch_points(memory))
         tree = build_hierarchy_held(held, levels)
-        points, offsets, border = fit_held(held, opts.snap, fit_batch_points(memory))
+        held.clear()
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     return Channel(
@@ -245,14 +246,15 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_moves(iso, tol), snap, max_points)
 
 
-def fit_held(held: list, snap: float, max_points: int | None = None):
-    """fit_isolines of the one Isolines in ``held``, which is emptied: its tolerances become
-    the fitter's in place, and once the joint reaches are found its grid, bands and samples
-    are dropped (no one else may hold it), so the fit holds only the points, their border
-    flags, tolerances and reaches (same result)."""
+def fit_first(held: list, snap: float, max_points: int | None = None):
+    """fit_isolines of the one Isolines in ``held`` (no one else may hold it), which is put
+    back without its tolerances (made the fitter's in place; the hierarchy, which comes
+    next, does not read them): the hierarchy's temporaries then sit beside 8 bytes a point
+    less than the fit's did (same result)."""
     iso = held.pop()
     tol = fit_tolerances(iso.tol, iso.tol)
     moves = _joint_moves(iso, tol)
+    held.append(replace(iso, tol=None))
     points, offsets, border = iso.points, iso.offsets, iso.border
     del iso
     return fit_loops(points, offsets, border, tol, moves, snap, max_points)

@@ -16,10 +16,10 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
 What it does not bound yet: the padded bands of a channel (8 bytes a pixel; the values
 are computed again from the plane where the caps read them, encoder/strips.py GridRows),
 its polylines (about 33 bytes a point, 1-4.5 points a pixel on textured photographs), and
-beside them the hierarchy's and the joint reaches' temporaries (about 12 bytes a point and
-16 a pixel each: the encoder drops the grid values after the caps and the grid after the
-reaches, encoder/hierarchy.py build_hierarchy_held, encoder.fit_held); docs/streaming.md
-says what remains.
+beside them the joint reaches' and the hierarchy's temporaries (about 5 bytes a point and
+16 a pixel, then 12 a point: the encoder fits first and drops the tolerances, then builds
+the hierarchy and drops the values' plane after the caps, encoder.fit_first,
+encoder/hierarchy.py build_hierarchy_held); docs/streaming.md says what remains.
 """
 
 from __future__ import annotations

@@ -76,25 +76,35 @@ def _cap_fit(num, den, has_edge, rows, labels, regs, L):
 
 
 def segment_table(iso: Isolines):
-    """Segments as (x, y, nxt, loop) arrays and their bucketing by half-pixel grid row:
-    segment s runs from point s, (x[s], y[s]), to point nxt[s] of its loop.
+    """Segments as (x, y, loop_start, loop) arrays and their bucketing by half-pixel grid
+    row: segment s runs from point s, (x[s], y[s]), to the next point of its loop (its
+    loop's first, loop_start[loop[s]], after its last: successors).
 
-    x and y are views of the points; nxt, loop and the row order are int32 (a channel's
-    points and loops are far below 2**31): 12 bytes a point in all."""
+    x and y are views of the points; loop and the row order are int32 (a channel's points
+    and loops are far below 2**31): 8 bytes a point in all."""
     p = iso.points
     n = p.shape[0]
     x, y = p[:, 0], p[:, 1]
-    nxt = np.arange(1, n + 1, dtype=np.int32)
-    nxt[iso.offsets[1:] - 1] = iso.offsets[:-1]
+    loop_start = np.ascontiguousarray(iso.offsets[:-1], np.int64)
     seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
     n_rows = max(iso.band.shape[0] - 3, 1)
     row = np.empty(n, np.int32)
     for a in range(0, n, ROW_CHUNK):  # the row of the segment's upper end, clamped
-        t = np.minimum(y[a : a + ROW_CHUNK], y[nxt[a : a + ROW_CHUNK]])
+        s = np.arange(a, min(a + ROW_CHUNK, n))
+        t = np.minimum(y[s], y[successors(s, iso.offsets, seg_loop)])
         t *= 2.0
         row[a : a + ROW_CHUNK] = np.clip(np.floor(t), 0, n_rows - 1)
     row_start, row_order = bucket_rows(row, n_rows)
-    return x, y, nxt, seg_loop, row_start, row_order, n_rows
+    return x, y, loop_start, seg_loop, row_start, row_order, n_rows
+
+
+def successors(s: np.ndarray, offsets: np.ndarray, seg_loop: np.ndarray) -> np.ndarray:
+    """The point each segment of ``s`` runs to: the next of its loop, its loop's first after
+    its last (enclose._succ's rule)."""
+    nx = s + 1
+    last = nx == offsets[seg_loop[s] + 1]
+    nx[last] = offsets[seg_loop[s[last]]]
+    return nx
 
 
 ROW_CHUNK = 1 << 20  # segments segment_table rows at a time (bounds its temporaries)
@@ -195,22 +205,23 @@ def _enclosing(iso: Isolines, m, cap_band, cap_xy, cap_value) -> Hierarchy:
     c = iso.n_loops
     lev_loop = iso.level.astype(np.int64)
     area = loop_areas(iso)
-    x, y, nxt, seg_loop, row_start, row_order, n_rows = segment_table(iso)
+    x, y, loop_start, seg_loop, row_start, row_order, n_rows = segment_table(iso)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
-    parent, seen = sweep_enclosing(x, y, nxt, seg_loop, row_start, row_order, lev_loop, c, n_rows)
+    parent, seen = sweep_enclosing(x, y, loop_start, seg_loop, row_start, row_order, lev_loop, c, n_rows)
     cand = np.flatnonzero(~seen[seg_loop])
-    cand = cand[~iso.border[cand] & (y[cand] != y[nxt[cand]])]
+    cand = cand[~iso.border[cand] & (y[cand] != y[successors(cand, iso.offsets, seg_loop)])]
     has_q, first = np.unique(seg_loop[cand], return_index=True)
     qs = cand[first]
     if qs.size:
         parent[has_q] = innermost_enclosing(
-            0.5 * (x[qs] + x[nxt[qs]]), 0.5 * (y[qs] + y[nxt[qs]]), has_q.astype(np.int64),
-            x, y, nxt, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+            0.5 * (x[qs] + x[successors(qs, iso.offsets, seg_loop)]),
+            0.5 * (y[qs] + y[successors(qs, iso.offsets, seg_loop)]), has_q.astype(np.int64),
+            x, y, loop_start, seg_loop, row_start, row_order, area, lev_loop, n_rows,
         )
     cap_contour = innermost_enclosing_rows(
         cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_xy), -1, np.int64),
-        x, y, nxt, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+        x, y, loop_start, seg_loop, row_start, row_order, area, lev_loop, n_rows,
     ) if c else np.full(len(cap_xy), -1, np.int64)
     return Hierarchy(
         parent=parent.astype(np.int32),

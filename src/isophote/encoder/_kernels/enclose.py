@@ -19,12 +19,23 @@ def _row_of(y, n_rows):
     return min(max(int(np.floor(y * 2.0)), 0), n_rows - 1)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _succ(s, seg_loop, loop_start):
+    """The point segment s runs to: the next of its loop, or the loop's first after its last
+    (loops are contiguous runs of points; no array a point is held for it)."""
+    lp = seg_loop[s]
+    if s + 1 < seg_loop.shape[0] and seg_loop[s + 1] == lp:
+        return s + 1
+    return loop_start[lp]
+
+
 @njit(cache=True, nogil=True)
-def innermost_enclosing(px, py, exclude, x, y, nxt, seg_loop, row_start, row_order,
+def innermost_enclosing(px, py, exclude, x, y, loop_start, seg_loop, row_start, row_order,
                         area, level, n_rows):
     """For each query point (px[q], py[q]) the innermost loop enclosing it, -1 if none.
 
-    Segment s runs from point s, (x[s], y[s]), to point nxt[s] of its loop seg_loop[s]; the
+    Segment s runs from point s, (x[s], y[s]), to the next point of its loop seg_loop[s] (the
+    loop's first, loop_start[seg_loop[s]], after its last: _succ); the
     segments of row k (y in [k/2, (k+1)/2]) are row_order[row_start[k]:row_start[k+1]].
     exclude[q] is a loop id the query ignores (its own loop) or -1.
     """
@@ -42,7 +53,7 @@ def innermost_enclosing(px, py, exclude, x, y, nxt, seg_loop, row_start, row_ord
             lp = seg_loop[s]
             if lp == exclude[q]:
                 continue
-            e = nxt[s]
+            e = _succ(s, seg_loop, loop_start)
             ya = y[s]
             yb = y[e]
             if ya == yb:
@@ -76,7 +87,7 @@ SWEEP_NUDGE = 2.0**-21  # scanlines sit this far below the sample rows (see _ker
 
 
 @njit(cache=True, nogil=True)
-def _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yl):
+def _row_crossings(x, y, loop_start, seg_loop, row_start, row_order, k, yl):
     """The crossings of bucket k's segments with the line yl (half-open in y): per crossing
     its x, loop, direction (+1 down) and place in row_order; returns (xs, ls, ds, ps, n)."""
     a0 = row_start[k]
@@ -88,7 +99,7 @@ def _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yl):
     n = 0
     for a in range(a0, a1):
         s = row_order[a]
-        e = nxt[s]
+        e = _succ(s, seg_loop, loop_start)
         ya = y[s]
         yb = y[e]
         if (ya <= yl < yb) or (yb <= yl < ya):
@@ -101,7 +112,7 @@ def _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yl):
 
 
 @njit(cache=True, nogil=True)
-def sweep_enclosing(x, y, nxt, seg_loop, row_start, row_order, level, n_loops, n_rows):
+def sweep_enclosing(x, y, loop_start, seg_loop, row_start, row_order, level, n_loops, n_rows):
     """Parents of all loops, in one left-to-right sweep per half-pixel row (linear in the
     number of crossings).
 
@@ -118,7 +129,7 @@ def sweep_enclosing(x, y, nxt, seg_loop, row_start, row_order, level, n_loops, n
     on_stack = np.zeros(n_loops, np.bool_)
     for k in range(n_rows):
         yc = 0.5 * k + SWEEP_NUDGE
-        xs, ls, _, _, n = _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yc)
+        xs, ls, _, _, n = _row_crossings(x, y, loop_start, seg_loop, row_start, row_order, k, yc)
         order = np.argsort(xs[:n], kind="mergesort")
         sp = 0
         i = 0
@@ -162,7 +173,7 @@ def sweep_enclosing(x, y, nxt, seg_loop, row_start, row_order, level, n_loops, n
 
 
 @njit(cache=True, nogil=True)
-def innermost_enclosing_rows(px, py, exclude, x, y, nxt, seg_loop, row_start, row_order,
+def innermost_enclosing_rows(px, py, exclude, x, y, loop_start, seg_loop, row_start, row_order,
                              area, level, n_rows):
     """:func:`innermost_enclosing` (same arguments, same answers) for many queries per row.
 
@@ -197,7 +208,7 @@ def innermost_enclosing_rows(px, py, exclude, x, y, nxt, seg_loop, row_start, ro
         g1 = g0
         while g1 < nq and kq[o[g1]] == k and py[o[g1]] == yq:
             g1 += 1
-        xs, ls, ds, ps, nc = _row_crossings(x, y, nxt, seg_loop, row_start, row_order, k, yq)
+        xs, ls, ds, ps, nc = _row_crossings(x, y, loop_start, seg_loop, row_start, row_order, k, yq)
         order = np.argsort(xs[:nc])
         nm = 0
         nt = 0
