@@ -185,12 +185,12 @@ vi = isophote.encode(np.clip(img, 0, 255).astype(np.uint8), preset="balanced", m
 assert sum(c.points.shape[0] for c in vi.channels) > 500_000
 """
 UNBOUNDED_PEAK_MB = 1671
-BOUNDED_PEAK_MB = 950  # 708-711 MB with the kernels cached, 829 when the child compiles them all
+BOUNDED_PEAK_MB = 1150  # 708-711 MB with the kernels cached, 829-984 when the child compiles them (a fresh clone's suite)
 
 
 def test_peak_rss_of_a_4mp_encode_stays_under_the_asserted_bound():
     """Asserts: the 4 MP encode's peak RSS (its own process, os.wait4) stays under
-    BOUNDED_PEAK_MB, 43 % below what the encoder needed before the budget (UNBOUNDED_PEAK_MB)."""
+    BOUNDED_PEAK_MB, 31 % below what the encoder needed before the budget (UNBOUNDED_PEAK_MB)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (os.path.dirname(os.path.dirname(
         isophote.__file__)), os.environ.get("PYTHONPATH")) if p))
     p = subprocess.Popen([sys.executable, "-c", RSS_CHILD], env=env)
