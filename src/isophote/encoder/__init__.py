@@ -414,14 +414,17 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     of the crossings near S only those of the nearest one's level (contours of two levels
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
-    return joint_reach(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
-                       iso.band.shape[1], ANCHOR_REACH)
+    return joint_reach(*_anchor_args(iso, tol))
 
 
 def _joint_moves(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     """Which crossings _joint_reach lets move (a byte a crossing)."""
-    return joint_moves(iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
-                       iso.band.shape[1], ANCHOR_REACH)
+    return joint_moves(*_anchor_args(iso, tol))
+
+
+def _anchor_args(iso: Isolines, tol: np.ndarray) -> tuple:
+    return (iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
+            iso.band.shape[1], ANCHOR_REACH)
 
 
 def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.ndarray):

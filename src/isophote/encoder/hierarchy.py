@@ -24,7 +24,7 @@ from ._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
 )
 from ._kernels.regions import (
-    cap_sums_rows, label_regions_rows, label_regions_saddles, region_deep, region_levels, value_sums_rows, whole,
+    label_regions_rows, label_regions_saddles, region_deep, region_levels, value_sums_rows, whole,
 )
 from .isolines import Isolines
 
@@ -51,24 +51,10 @@ def value_rows(values):
     return values if callable(values) else whole(values)
 
 
-def fit_cap_values(labels, values, m, regs, level_value, single, ramp=CAP_RAMP):
-    """Least-squares cap values for the profile of model.py (``values``: the padded value
-    grid or a row source, value_rows).
-
-    d is measured on the grid: the distance to the nearest sample of another region (not
-    the padding: the border is no isoline) plus half a grid step, in pixels
-    (_kernels/regions.py: cap_sums).
-    """
-    rows = value_rows(values)
-    want = np.zeros(m, bool)
-    want[regs] = True
-    L = np.zeros(m)
-    L[regs] = level_value
-    num, den, has_edge = cap_sums_rows(labels, rows, want, L, float(ramp))
-    return _cap_fit(num, den, has_edge, rows, labels, regs, L)
-
-
 def _cap_fit(num, den, has_edge, rows, labels, regs, L):
+    """Least-squares cap values for the profile of model.py from value_sums_rows' sums (d is
+    measured on the grid: the distance to the nearest sample of another region, not the
+    padding, plus half a grid step, in pixels: _kernels/regions.py cap_sums)."""
     if not has_edge:  # one region: the mean of the whole grid (made whole here, the same bits)
         return np.array([float(rows(0, labels.shape[0])[1:-1, 1:-1].mean())] * len(regs))
     out = L[regs] + num[regs] / np.maximum(den[regs], 1e-12)
@@ -90,8 +76,8 @@ def segment_table(iso: Isolines):
     n_rows = max(iso.band.shape[0] - 3, 1)
     row = np.empty(n, np.int32)
     for a in range(0, n, ROW_CHUNK):  # the row of the segment's upper end, clamped
-        s = np.arange(a, min(a + ROW_CHUNK, n))
-        t = np.minimum(y[s], y[successors(s, iso.offsets, seg_loop)])
+        ends = successors(np.arange(a, min(a + ROW_CHUNK, n)), iso.offsets, seg_loop)
+        t = np.minimum(y[a : a + ROW_CHUNK], y[ends])
         t *= 2.0
         row[a : a + ROW_CHUNK] = np.clip(np.floor(t), 0, n_rows - 1)
     row_start, row_order = bucket_rows(row, n_rows)
@@ -174,7 +160,7 @@ def _caps(iso: Isolines, levels: np.ndarray):
     wp = iso.band.shape[1]
     cap_band = iso.band.ravel()[deep[regs]].astype(np.int32)
     no_contour = hi[regs] < 0  # the mean
-    single = ~no_contour  # a least-squares profile (fit_cap_values)
+    single = ~no_contour  # a least-squares profile (_cap_fit)
     level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
     # one pass over the values: the regions' sums and the caps' least-squares sums
     want = np.zeros(m, bool)
@@ -214,9 +200,9 @@ def _enclosing(iso: Isolines, m, cap_band, cap_xy, cap_value) -> Hierarchy:
     has_q, first = np.unique(seg_loop[cand], return_index=True)
     qs = cand[first]
     if qs.size:
+        qe = successors(qs, iso.offsets, seg_loop)
         parent[has_q] = innermost_enclosing(
-            0.5 * (x[qs] + x[successors(qs, iso.offsets, seg_loop)]),
-            0.5 * (y[qs] + y[successors(qs, iso.offsets, seg_loop)]), has_q.astype(np.int64),
+            0.5 * (x[qs] + x[qe]), 0.5 * (y[qs] + y[qe]), has_q.astype(np.int64),
             x, y, loop_start, seg_loop, row_start, row_order, area, lev_loop, n_rows,
         )
     cap_contour = innermost_enclosing_rows(

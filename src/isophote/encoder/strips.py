@@ -41,27 +41,36 @@ def grid_window(v, e, levels, opts, w0, w1, hp, wp):
     """Padded values, bands and sample errors of padded rows [w0, w1) (the padding ring is
     value 0, band 0, error 0). The grid's rows are computed in place (mapping.map_rows_into)
     and banded by a kernel: no copies beside the window."""
-    g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
-    n = w1 - w0
-    wv = np.empty((n, wp))
-    we = np.empty((n, wp))
-    a = g0 + 1 - w0
-    rows = max(g1 - g0, 0)
-    xr = x_pass_rows(v.shape[0], g0, g1)
-    map_rows_into(v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1,
-                  wv[a : a + rows, 1:-1], we[a : a + rows, 1:-1], np.empty((xr, wp - 2)), np.empty((xr, wp - 2)))
-    for z in (wv, we):  # the padding ring and the rows outside the grid
-        z[:a] = 0.0
-        z[a + rows :] = 0.0
-        z[:, 0] = 0.0
-        z[:, -1] = 0.0
-    wb = np.empty((n, wp), np.int16)
+    wv, we, a, rows = _window(v, e, opts, w0, w1, hp, wp, True)
+    wb = np.empty((w1 - w0, wp), np.int16)
     band_of(wv, np.ascontiguousarray(levels, np.float64), wb)  # pad_bands' rule
     wb[:a] = 0
     wb[a + rows :] = 0
     wb[:, 0] = 0
     wb[:, -1] = 0
     return wv, wb, we
+
+
+def _window(v, e, opts, w0, w1, hp, wp, errors):
+    """Padded values (and, with ``errors``, sample errors; else None) of padded rows
+    [w0, w1), the padding ring and the rows outside the grid 0; and where the grid's rows
+    lie in them (a, rows)."""
+    g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
+    a = g0 + 1 - w0
+    rows = max(g1 - g0, 0)
+    wv = np.empty((w1 - w0, wp))
+    we = np.empty((w1 - w0, wp)) if errors else None
+    xr = x_pass_rows(v.shape[0], g0, g1)
+    unused = np.empty((1, wp - 2))  # the errors' arrays when they are not asked for
+    map_rows_into(v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1,
+                  wv[a : a + rows, 1:-1], we[a : a + rows, 1:-1] if errors else unused, np.empty((xr, wp - 2)),
+                  np.empty((xr, wp - 2)) if errors else unused, errors)
+    for z in (wv, we) if errors else (wv,):
+        z[:a] = 0.0
+        z[a + rows :] = 0.0
+        z[:, 0] = 0.0
+        z[:, -1] = 0.0
+    return wv, we, a, rows
 
 
 class GridRows:
@@ -72,24 +81,11 @@ class GridRows:
     decide are recorded by the march, saddle_unions), and holding them whole was 8 bytes a
     sample, 32 a pixel, at the march's peak (issue 22). Holds the plane (8 bytes a pixel)."""
 
-    def __init__(self, v, levels, opts, hp, wp):
-        self.v, self.levels, self.opts, self.hp, self.wp = v, levels, opts, hp, wp  # the errors are not needed
+    def __init__(self, v, opts, hp, wp):
+        self.v, self.opts, self.hp, self.wp = v, opts, hp, wp  # the errors are not needed
 
     def __call__(self, w0: int, w1: int) -> np.ndarray:
-        hp, wp, opts = self.hp, self.wp, self.opts
-        g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
-        wv = np.empty((w1 - w0, wp))
-        a = g0 + 1 - w0
-        rows = max(g1 - g0, 0)
-        scratch = np.empty((x_pass_rows(self.v.shape[0], g0, g1), wp - 2))
-        one = np.empty((1, wp - 2))  # the errors' arrays, unused
-        map_rows_into(self.v, self.v, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic),
-                      g0, g1, wv[a : a + rows, 1:-1], one, scratch, one, False)
-        wv[:a] = 0.0
-        wv[a + rows :] = 0.0
-        wv[:, 0] = 0.0
-        wv[:, -1] = 0.0
-        return wv
+        return _window(self.v, self.v, self.opts, w0, w1, self.hp, self.wp, False)[0]
 
 
 class _Chain:
@@ -104,9 +100,10 @@ class _Chain:
 
 
 def _march(v, e, levels, opts, hp, wp, r0, r1, band):
-    """One strip: its rows of the grid's bands go into ``band`` (strips' rows are disjoint);
-    returns its loops (a part for merge_loops), its pieces, its frame loops' levels and its
-    cells' saddle unions (_kernels/regions.py saddle_unions)."""
+    """One strip (``levels`` contiguous float64): its rows of the grid's bands go into
+    ``band`` (strips' rows are disjoint); returns its loops (a part for merge_loops), its
+    pieces, its frame loops' levels and its cells' saddle unions (_kernels/regions.py
+    saddle_unions)."""
     w0, w1 = max(r0 - 1, 0), min(r1 + 2, hp)
     wv, wb, we = grid_window(v, e, levels, opts, w0, w1, hp, wp)
     (ok, n_kept, offsets, level, key, end_key, inner, points, border, below, above, tol, skey,
@@ -130,7 +127,7 @@ def _march(v, e, levels, opts, hp, wp, r0, r1, band):
     ra, rb = r0, (r1 + 1 if r1 == hp - 1 else r1)
     band[ra:rb] = wb[ra - w0 : rb - w0]
     # the regions' diagonal joins that the values decide, while the values are at hand
-    saddles = saddle_unions(wv, wb, w0, hp, r0, r1, np.ascontiguousarray(levels, np.float64))
+    saddles = saddle_unions(wv, wb, w0, hp, r0, r1, levels)
     return loops, pieces, frame_levels, saddles
 
 
@@ -205,22 +202,19 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
     band = np.zeros((hp, wp), np.int16)
     bounds = [(r0, min(r0 + rows, hp - 1)) for r0 in range(0, hp - 1, rows)]
     parts, frame, carried, saddles = [], [], {}, []
-    def march(r0, r1):
-        return _march(v, e, levels, opts, hp, wp, r0, r1, band)
-
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         pending = deque()
         todo = iter(bounds)
         for _ in range(max(1, workers)):
             b = next(todo, None)
             if b is not None:
-                pending.append(pool.submit(march, *b))
+                pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b, band))
         while pending:
             loops, pieces, frame_levels, strip_saddles = pending.popleft().result()
             saddles.append(strip_saddles)
             b = next(todo, None)
             if b is not None:
-                pending.append(pool.submit(march, *b))
+                pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b, band))
             frame.extend(frame_levels.tolist())
             if loops["level"].shape[0]:
                 parts.append(loops)
@@ -243,5 +237,5 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
                       offsets=np.zeros(1, np.int64))
     else:
         merged = merge_loops(parts)
-    return Isolines(band=band, values=GridRows(v, levels, opts, hp, wp), base_band=base,
+    return Isolines(band=band, values=GridRows(v, opts, hp, wp), base_band=base,
                     saddles=np.concatenate(saddles) if saddles else np.zeros((0, 2), np.int64), **merged)

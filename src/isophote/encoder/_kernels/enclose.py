@@ -35,8 +35,8 @@ def innermost_enclosing(px, py, exclude, x, y, loop_start, seg_loop, row_start, 
     """For each query point (px[q], py[q]) the innermost loop enclosing it, -1 if none.
 
     Segment s runs from point s, (x[s], y[s]), to the next point of its loop seg_loop[s] (the
-    loop's first, loop_start[seg_loop[s]], after its last: _succ); the
-    segments of row k (y in [k/2, (k+1)/2]) are row_order[row_start[k]:row_start[k+1]].
+    loop's first, loop_start[seg_loop[s]], after its last: _succ); the segments of row k
+    (y in [k/2, (k+1)/2]) are row_order[row_start[k]:row_start[k+1]].
     exclude[q] is a loop id the query ignores (its own loop) or -1.
     """
     nq = px.shape[0]

@@ -70,8 +70,9 @@ def label_regions_saddles(band, saddles):
 def saddle_unions(wv, wb, w0, hp, r0, r1, levels):
     """The diagonal unions of label_regions that the bilinear saddle decides, for the cells
     whose top row r is in [r0, r1) of a padded grid of hp rows (wv, wb: padded value and
-    band rows from w0 on, holding rows r0 .. r1): (n, 2) int64 flat sample pairs. The march records them strip by strip,
-    so the hierarchy labels the regions without the values (encoder/strips.py)."""
+    band rows from w0 on, holding rows r0 .. r1): (n, 2) int64 flat sample pairs. The march
+    records them strip by strip, so the hierarchy labels the regions without the values
+    (encoder/strips.py)."""
     r0, r1 = max(r0, 1), min(r1, hp - 2)
     if r1 <= r0:
         return np.zeros((0, 2), np.int64)
