@@ -61,10 +61,13 @@ def _window(v, e, opts, w0, w1, hp, wp, errors):
     wv = np.empty((w1 - w0, wp))
     we = np.empty((w1 - w0, wp)) if errors else None
     xr = x_pass_rows(v.shape[0], g0, g1)
-    unused = np.empty((1, wp - 2))  # the errors' arrays when they are not asked for
-    map_rows_into(v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1,
-                  wv[a : a + rows, 1:-1], we[a : a + rows, 1:-1] if errors else unused, np.empty((xr, wp - 2)),
-                  np.empty((xr, wp - 2)) if errors else unused, errors)
+    args = (v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1,
+            wv[a : a + rows, 1:-1])
+    if errors:  # errors left at its default: numba compiles the flag in, the march's loops stay lean
+        map_rows_into(*args, we[a : a + rows, 1:-1], np.empty((xr, wp - 2)), np.empty((xr, wp - 2)))
+    else:
+        unused = np.empty((1, wp - 2))  # the errors' arrays, not written
+        map_rows_into(*args, unused, np.empty((xr, wp - 2)), unused, False)
     for z in (wv, we) if errors else (wv,):
         z[:a] = 0.0
         z[a + rows :] = 0.0
