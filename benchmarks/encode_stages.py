@@ -65,10 +65,11 @@ def stages(plane, name, opts, memory, report):
         held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
                                                     "band", "offsets"))
         print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | | | | |")
-    held = [iso]  # as encode_channel: the tolerances go after the fit, the values after the caps
+    held = [iso]  # as encode_channel: each part goes after the stage that reads it last
     del iso
-    stage("fit (reaches, then batches)", lambda: E.fit_first(held, opts.snap, budget.fit_batch_points(memory)))
-    stage("hierarchy", lambda: hierarchy.build_hierarchy_held(held, lev))
+    _, bounds = stage("fit (reaches, the regions' bounds, then batches)",
+                      lambda: E.fit_bounded(held, lev, opts.snap, budget.fit_batch_points(memory)))
+    stage("hierarchy", lambda: hierarchy.build_hierarchy_held(held, lev, bounds))
 
 
 def main(argv=None) -> int:

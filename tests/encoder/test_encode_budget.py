@@ -73,9 +73,10 @@ def test_fit_batches_give_the_chains_of_one_batch():
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])
 def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
-    """The encoder's path that drops what it has read (the tolerances, made the fitter's in
-    place, after the fit; the grid values after the caps) gives the hierarchy and chains of
-    build_hierarchy and fit_isolines, batched or not, in either order."""
+    """The encoder's path that drops what it has read gives the hierarchy and chains of
+    build_hierarchy and fit_isolines, batched or not: the fit first (the tolerances, made
+    the fitter's in place, go), then the hierarchy (the crossings' grid samples and saddle
+    joins go once the regions' levels are found, the values and bands after the caps)."""
     from isophote.encoder.hierarchy import build_hierarchy, build_hierarchy_held
 
     opts, levels, grid, grid_eps = _plane_grid(preset)
@@ -86,26 +87,32 @@ def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
     iso = fresh()
     tree, chains = build_hierarchy(iso, levels), E.fit_isolines(iso, opts.snap)
     assert iso.n_loops > 50 and np.array_equal(iso.tol, fresh().tol)  # the plain path keeps its input
+    assert iso.band is not None and iso.below is not None
     for max_points in (None, 300):
-        held = [fresh()]
-        got = build_hierarchy_held(held, levels)
-        assert len(held) == 1 and held[0].values is None and held[0].band is not None
-        for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
-            a, b = getattr(tree, f), getattr(got, f)
-            assert a.dtype == b.dtype and np.array_equal(a, b), f
-        assert got.n_regions == tree.n_regions
-        fitted = E.fit_first(held, opts.snap, max_points)
-        for a, b in zip(chains, fitted):
-            assert a.dtype == b.dtype and np.array_equal(a, b), max_points
-        # the encoder's order: the fit first (the tolerances go), then the hierarchy
         held = [fresh()]
         fitted = E.fit_first(held, opts.snap, max_points)
         assert len(held) == 1 and held[0].tol is None and held[0].band is not None
         for a, b in zip(chains, fitted):
             assert a.dtype == b.dtype and np.array_equal(a, b), max_points
         got = build_hierarchy_held(held, levels)
+        assert len(held) == 1
+        assert all(getattr(held[0], f) is None for f in ("values", "band", "above", "below", "saddles"))
+        assert held[0].points is not None and held[0].border is not None
         for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
-            assert np.array_equal(getattr(tree, f), getattr(got, f)), f
+            a, b = getattr(tree, f), getattr(got, f)
+            assert a.dtype == b.dtype and np.array_equal(a, b), f
+        assert got.n_regions == tree.n_regions
+        # the encoder's: the regions' bounds found before the fit, the grid samples gone then
+        held = [fresh()]
+        fitted, bounds = E.fit_bounded(held, levels, opts.snap, max_points)
+        assert held[0].tol is None and held[0].below is None and held[0].band is not None
+        for a, b in zip(chains, fitted):
+            assert a.dtype == b.dtype and np.array_equal(a, b), max_points
+        got = build_hierarchy_held(held, levels, bounds)
+        for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
+            a, b = getattr(tree, f), getattr(got, f)
+            assert a.dtype == b.dtype and np.array_equal(a, b), f
+        assert got.n_regions == tree.n_regions == bounds[0]
 
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])

@@ -748,7 +748,7 @@ def test_joints_move_onto_samples_and_levels_never_meet_there(monkeypatch):
 def test_joint_reach_matches_its_twin(which):
     """The compiled rule (_kernels/anchors.py) equals its NumPy twin, and grants a move to
     a good share of the crossings of a photograph, never beyond 0.75 of a tolerance."""
-    from isophote.encoder._kernels.anchors import joint_reach
+    from isophote.encoder._kernels.anchors import joint_moves, joint_reach
     from isophote.encoder._kernels.anchors_ref import joint_reach as joint_reach_ref
 
     rng = np.random.default_rng(5)
@@ -767,6 +767,9 @@ def test_joint_reach_matches_its_twin(which):
     assert np.all((fast == 0) | (fast == 0.75 * tol))
     if which in ("astronaut", "camera"):
         assert np.mean(fast > 0) > 0.1, np.mean(fast > 0)
+    # the kernel takes the samples a band of rows at a time: any band height, the same moves
+    for rows, workers in ((1, 1), (2, 3), (3, 2), (7, 1), (7, 5), (1000, 2)):
+        assert np.array_equal(joint_moves(*args, rows, workers=workers), ref > 0), (rows, workers)
 
 
 def test_moved_joints_keep_every_loop_open_and_its_way_round(monkeypatch):

@@ -25,7 +25,7 @@ from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
-from .hierarchy import build_hierarchy, build_hierarchy_held
+from .hierarchy import build_hierarchy, build_hierarchy_held, region_bounds
 from .isolines import Isolines
 from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
 from .strips import strip_isolines
@@ -191,10 +191,10 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
             tree = tree.result()
     else:  # one after the other: their temporaries do not add up (same result)
-        held = [iso]  # the tolerances go after the fit, the grid values after the caps
+        held = [iso]  # each part goes after the stage that reads it last
         del iso
-        points, offsets, border = fit_first(held, opts.snap, fit_batch_points(memory))
-        tree = build_hierarchy_held(held, levels)
+        (points, offsets, border), bounds = fit_bounded(held, levels, opts.snap, fit_batch_points(memory))
+        tree = build_hierarchy_held(held, levels, bounds)
         held.clear()
     q = float(QUANT)
     points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
@@ -258,6 +258,21 @@ def fit_first(held: list, snap: float, max_points: int | None = None):
     points, offsets, border = iso.points, iso.offsets, iso.border
     del iso
     return fit_loops(points, offsets, border, tol, moves, snap, max_points)
+
+
+def fit_bounded(held: list, levels: np.ndarray, snap: float, max_points: int | None = None):
+    """fit_first, with the regions' bounding levels found between the joint moves and the
+    fit (hierarchy.region_bounds): the crossings' grid samples (8 bytes a point), which
+    the fit does not read, go before it. Returns fit_first's (points, offsets, border) and
+    the bounds for hierarchy.build_hierarchy_held (same result)."""
+    iso = held.pop()
+    tol = fit_tolerances(iso.tol, iso.tol)
+    moves = _joint_moves(iso, tol)
+    bounds = region_bounds(iso, levels)
+    held.append(replace(iso, tol=None, above=None, below=None))
+    points, offsets, border = iso.points, iso.offsets, iso.border
+    del iso
+    return fit_loops(points, offsets, border, tol, moves, snap, max_points), bounds
 
 
 CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)
@@ -414,12 +429,13 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     of the crossings near S only those of the nearest one's level (contours of two levels
     never meet at S), and of those at most the PER_LOOP nearest of each loop (no loop shrinks
     onto S); never onto the image's frame; 0 elsewhere (_kernels/anchors.py)."""
-    return joint_reach(*_anchor_args(iso, tol))
+    return joint_reach(*_anchor_args(iso, tol), workers=threads.available())
 
 
 def _joint_moves(iso: Isolines, tol: np.ndarray) -> np.ndarray:
-    """Which crossings _joint_reach lets move (a byte a crossing)."""
-    return joint_moves(*_anchor_args(iso, tol))
+    """Which crossings _joint_reach lets move (a byte a crossing; the same whatever the
+    threads)."""
+    return joint_moves(*_anchor_args(iso, tol), workers=threads.available())
 
 
 def _anchor_args(iso: Isolines, tol: np.ndarray) -> tuple:

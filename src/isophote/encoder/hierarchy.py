@@ -24,7 +24,7 @@ from ._kernels.enclose import (
     bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
 )
 from ._kernels.regions import (
-    label_regions_rows, label_regions_saddles, region_deep, region_levels, value_sums_rows, whole,
+    label_regions_rows, label_regions_saddles, loop_levels, region_deep, value_sums_rows, whole,
 )
 from .isolines import Isolines
 
@@ -61,10 +61,11 @@ def _cap_fit(num, den, has_edge, rows, labels, regs, L):
     return np.clip(out, 0.0, 255.0)
 
 
-def segment_table(iso: Isolines):
+def segment_table(iso: Isolines, n_rows: int | None = None):
     """Segments as (x, y, loop_start, loop) arrays and their bucketing by half-pixel grid
     row: segment s runs from point s, (x[s], y[s]), to the next point of its loop (its
-    loop's first, loop_start[loop[s]], after its last: successors).
+    loop's first, loop_start[loop[s]], after its last: successors); its row is that of its
+    upper end, clamped to the n_rows rows (by default those of the Isolines' band grid).
 
     x and y are views of the points; loop and the row order are int32 (a channel's points
     and loops are far below 2**31): 8 bytes a point in all."""
@@ -73,7 +74,8 @@ def segment_table(iso: Isolines):
     x, y = p[:, 0], p[:, 1]
     loop_start = np.ascontiguousarray(iso.offsets[:-1], np.int64)
     seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
-    n_rows = max(iso.band.shape[0] - 3, 1)
+    if n_rows is None:
+        n_rows = max(iso.band.shape[0] - 3, 1)
     row = np.empty(n, np.int32)
     for a in range(0, n, ROW_CHUNK):  # the row of the segment's upper end, clamped
         ends = successors(np.arange(a, min(a + ROW_CHUNK, n)), iso.offsets, seg_loop)
@@ -94,25 +96,12 @@ def successors(s: np.ndarray, offsets: np.ndarray, seg_loop: np.ndarray) -> np.n
 
 
 ROW_CHUNK = 1 << 20  # segments segment_table rows at a time (bounds its temporaries)
-LEVEL_BATCH = 1 << 20  # segments a call of region_levels takes (bounds its copies)
 
 
 def crossing_levels(iso: Isolines, labels: np.ndarray, m: int):
-    """region_levels over the isoline (not border) segments, in batches of loops of about
-    LEVEL_BATCH segments (the lowest and highest levels are the same in any order)."""
-    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
-    hi = np.full(m, -1, np.int64)
-    offs = iso.offsets
-    cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(LEVEL_BATCH, offs[-1], LEVEL_BATCH)),
-                                     [iso.n_loops]]))
-    for a, b in zip(cuts[:-1], cuts[1:]):
-        o0, o1 = offs[a], offs[b]
-        keep = ~iso.border[o0:o1]
-        lev = np.repeat(iso.level[a:b].astype(np.int64), np.diff(offs[a : b + 1]))[keep]
-        l2, h2 = region_levels(labels, iso.band, iso.above[o0:o1][keep], iso.below[o0:o1][keep], lev, m)
-        np.minimum(lo, l2, out=lo)
-        np.maximum(hi, h2, out=hi)
-    return lo, hi
+    """The lowest and highest level of the isoline (not border) crossings that bound each
+    region (region_levels' rule, loop by loop: _kernels/regions.py loop_levels)."""
+    return loop_levels(labels, iso.band, iso.above, iso.below, iso.border, iso.offsets, iso.level, m)
 
 
 def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
@@ -124,33 +113,65 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     that side), so they are found on the labelled band grid: a region's bounding levels are
     the levels of the crossings next to its samples.
     """
-    return _enclosing(iso, *_caps(iso, levels))
+    labels, m = _labels(iso, levels)
+    lo, hi = crossing_levels(iso, labels, m)
+    return _enclosing(iso, *_caps(iso, levels, [labels], m, lo, hi))
 
 
-def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
+def build_hierarchy_held(held: list, levels: np.ndarray, bounds=None) -> Hierarchy:
     """build_hierarchy of the one Isolines in ``held`` (no one else may hold it), which is
-    put back without its grid values once the caps are fitted (the values are read by the
-    caps alone): the parents' segment table is then built beside 8 bytes a sample less
-    (the grid), or a pixel (the plane the strips' row source computes them from)."""
+    put back with its points, offsets, levels and border flags alone once the caps are
+    fitted. The crossings' grid samples (8 bytes a point) and the saddle joins go once the
+    regions' bounding levels are found (or given: ``bounds``, region_bounds' of the same
+    Isolines, found before its grid samples went), before the caps' distances and sums; the
+    values' row source (the plane it computes them from) and the bands once the caps are
+    fitted, before the parents' segment table."""
     iso = held.pop()
-    caps = _caps(iso, levels)
-    held.append(replace(iso, values=None))
+    labels, m = _labels(iso, levels)
+    if bounds is None:
+        lo, hi = crossing_levels(iso, labels, m)
+    else:  # region_bounds' (the labels are the same sets, numbered alike)
+        m_b, lo, hi = bounds
+        if m_b != m:
+            raise RuntimeError("the regions' bounds are another grid's")  # a bug, never input
+    iso = replace(iso, above=None, below=None, saddles=None)
+    lab = [labels]
+    del labels
+    caps = _caps(iso, levels, lab, m, lo, hi)
+    del lo, hi
+    n_rows = max(iso.band.shape[0] - 3, 1)
+    held.append(replace(iso, values=None, band=None))
     del iso
-    return _enclosing(held[0], *caps)
+    return _enclosing(held[0], *caps, n_rows=n_rows)
 
 
-def _caps(iso: Isolines, levels: np.ndarray):
-    """The caps on the labelled band grid: (n_regions, cap_band, cap_xy, cap_value)."""
+def region_bounds(iso: Isolines, levels: np.ndarray):
+    """(m, lo, hi): the number of regions of the band grid and each one's lowest and highest
+    bounding level (crossing_levels'), for build_hierarchy_held; the labels are not kept
+    (16 bytes a pixel: the caps label the regions again, the same sets numbered alike)."""
+    labels, m = _labels(iso, levels)
+    lo, hi = crossing_levels(iso, labels, m)
+    return m, lo, hi
+
+
+def _labels(iso: Isolines, levels: np.ndarray):
+    """The regions of the band grid: (labels, m)."""
+    if iso.saddles is not None:  # the strips recorded what the values decide
+        return label_regions_saddles(iso.band, iso.saddles)
+    return label_regions_rows(value_rows(iso.values), iso.band, np.asarray(levels, np.float64))
+
+
+def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, lo: np.ndarray, hi: np.ndarray):
+    """The caps on the labelled band grid (the one labels array in ``lab``, emptied: it goes
+    once the caps are fitted; lo and hi: the regions' bounding levels, crossing_levels'):
+    (n_regions, cap_band, cap_xy, cap_value).
+
+    A region is a cap when its bounding levels are one (border stretches are no isolines:
+    the decoder takes no distance from them, so a region that one level closes against the
+    frame is a cap, whatever levels run along the frame)."""
+    labels = lab.pop()
     c = iso.n_loops
     rows = value_rows(iso.values)
-    if iso.saddles is not None:  # the strips recorded what the values decide
-        labels, m = label_regions_saddles(iso.band, iso.saddles)
-    else:
-        labels, m = label_regions_rows(rows, iso.band, np.asarray(levels, np.float64))
-    # the levels of the crossings next to each region's samples
-    # (border stretches are no isolines: the decoder takes no distance from them, so a region
-    # that one level closes against the frame is a cap, whatever levels run along the frame)
-    lo, hi = crossing_levels(iso, labels, m)
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
@@ -174,7 +195,7 @@ def _caps(iso: Isolines, levels: np.ndarray):
         fitted = _cap_fit(num, den, has_edge, rows, labels, regs, L)
         cap_value = np.where(single, fitted, cap_value)
     cap_idx = deep[regs].astype(np.int64)
-    del labels, deep, total, count, lo, hi
+    del labels, deep, total, count
     # the cap is placed at the region's deepest sample: the annotation only names its region,
     # and a sample far from the region's edges keeps naming it when the fitted contours move
     # within their ribbons (an extremum on a plateau would be the plateau's first sample in
@@ -184,14 +205,14 @@ def _caps(iso: Isolines, levels: np.ndarray):
     return m, np.asarray(cap_band, np.int32), cap_xy, np.asarray(cap_value, np.float64)
 
 
-def _enclosing(iso: Isolines, m, cap_band, cap_xy, cap_value) -> Hierarchy:
+def _enclosing(iso: Isolines, m, cap_band, cap_xy, cap_value, n_rows=None) -> Hierarchy:
     """The parents of the loops and the caps' enclosing contours, from the loops' geometry
     (the caps' regions labelled first: the region labels and the segment table are not held
     at once)."""
     c = iso.n_loops
     lev_loop = iso.level.astype(np.int64)
     area = loop_areas(iso)
-    x, y, loop_start, seg_loop, row_start, row_order, n_rows = segment_table(iso)
+    x, y, loop_start, seg_loop, row_start, row_order, n_rows = segment_table(iso, n_rows)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
     parent, seen = sweep_enclosing(x, y, loop_start, seg_loop, row_start, row_order, lev_loop, c, n_rows)

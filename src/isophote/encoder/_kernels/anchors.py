@@ -12,6 +12,8 @@ sample). Grid samples are flat indices of the padded grid (``wp`` samples a row;
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 from numba import njit
 
@@ -21,96 +23,180 @@ from numba import njit
 PER_LOOP = 2
 
 
-@njit(cache=True, nogil=True)
-def _nearer_end(points, below, above, band, lev, k, wp):
-    """Crossing k's nearer grid sample S (the lower-numbered one on ties), its city-block
-    distance, and whether S is in the band next to its level ``lev``: the crossings of an
-    edge come in level order (the marching kernel's monotone interpolant), so then none lies
-    between it and S."""
+@njit(cache=True, nogil=True, inline="always")
+def _nearer(points, below, above, k, wp):
+    """Crossing k's nearer grid sample S (the lower-numbered one on ties), S's row and
+    column and its city-block distance. The two samples are 4-neighbours: one division finds
+    both rows (the same values as dividing each)."""
     lo = below[k]
     hi = above[k]
-    r = lo // wp
-    a = abs(points[k, 0] - (lo - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
-    r = hi // wp
-    b = abs(points[k, 0] - (hi - r * wp - 1) * 0.5) + abs(points[k, 1] - (r - 1) * 0.5)
+    rl = lo // wp
+    cl = lo - rl * wp
+    d = hi - lo
+    if d == 1 or d == -1:
+        rh = rl
+    elif d == wp:
+        rh = rl + 1
+    elif d == -wp:
+        rh = rl - 1
+    else:
+        rh = hi // wp
+    ch = hi - rh * wp
+    a = abs(points[k, 0] - (cl - 1) * 0.5) + abs(points[k, 1] - (rl - 1) * 0.5)
+    b = abs(points[k, 0] - (ch - 1) * 0.5) + abs(points[k, 1] - (rh - 1) * 0.5)
     if a < b or (a == b and lo < hi):
-        return lo, a, band[lo] == lev
-    return hi, b, band[hi] == lev + 1
+        return lo, rl, cl, a
+    return hi, rh, ch, b
 
 
-@njit(cache=True, nogil=True)
-def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac):
+def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac, workers=1):
     """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
-    moves = joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac)
-    reach = np.zeros(points.shape[0])
-    for k in range(points.shape[0]):
-        if moves[k]:
-            reach[k] = frac * tol[k]
-    return reach
+    moves = joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac, workers=workers)
+    return np.where(moves, frac * tol, 0.0)
 
 
-@njit(cache=True, nogil=True)
-def joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac):
+# Sample rows whose candidates joint_moves chains at a time (its per-sample heads are a band's,
+# not the grid's: 4 bytes a sample of the band)
+BAND_ROWS = 256
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _candidate(points, below, above, band, lev, k, wp, hp, frac, tol):
+    """Crossing k's nearer sample and its row if it is a candidate to move there (within
+    frac of its tolerance, in the band next to its level, inside the image), else (-1, -1)."""
+    s, r, c, d = _nearer(points, below, above, k, wp)
+    if (d <= frac * tol[k] and 1 < r < hp - 2 and 1 < c < wp - 2
+            and band[s] == (lev if s == below[k] else lev + 1)):
+        return s, r
+    return -1, -1
+
+
+def joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1):
     """(N,) bool: the crossings that may move (joint_reach's, a byte a crossing: the encoder
     holds this and makes the reaches batch by batch).
 
-    Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]. Besides the result
-    the kernel holds 4 bytes a crossing (the per-sample chains' links) and 4 a sample (their
-    heads): a crossing's loop and distance are found again when its sample is visited."""
+    Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]. A sample's decision
+    reads its own candidates alone, in point order, so the samples are taken ``band_rows``
+    rows at a time: the candidates are listed band by band in point order (4 bytes a
+    candidate), and each band chains its own per sample (4 bytes a sample of the band and a
+    candidate of it); a crossing's loop and distance are found again when its sample is
+    visited. ``workers`` threads list the candidates of consecutive runs of loops (each
+    run's after the runs before it in each band: the same lists) and decide runs of bands
+    (a crossing is a candidate at one sample alone): the same result for any count."""
     n = points.shape[0]
-    size = band.shape[0]
-    hp = size // wp
+    hp = band.shape[0] // wp
+    n_bands = (hp + band_rows - 1) // band_rows
     n_loops = offsets.shape[0] - 1
-    # the candidates, chained per sample in point order (head, nxt; int32 keeps them small)
-    head = np.full(size, -1, np.int32)
-    nxt = np.empty(n, np.int32)  # read only along the chains
-    for lp in range(n_loops - 1, -1, -1):
-        lev = loop_level[lp]
-        for k in range(offsets[lp + 1] - 1, offsets[lp] - 1, -1):
-            s, d, next_to = _nearer_end(points, below, above, band, lev, k, wp)
-            r = s // wp
-            inside = 1 < r < hp - 2 and 1 < s - r * wp < wp - 2
-            if d <= frac * tol[k] and next_to and inside:
-                nxt[k] = head[s]
-                head[s] = k
-    longest = 0
-    for s in range(size):
-        m = 0
-        q = head[s]
-        while q >= 0:
-            m += 1
-            q = nxt[q]
-        longest = max(longest, m)
-    ck = np.empty(longest, np.int64)  # one sample's candidates: point, loop, distance
-    cl = np.empty(longest, np.int64)
-    cd = np.empty(longest)
     moves = np.zeros(n, np.bool_)
-    for s in range(size):
-        q = head[s]
-        if q < 0:
-            continue
-        r = s // wp
-        sx = (s - r * wp - 1) * 0.5
-        sy = (r - 1) * 0.5
-        m = 0
-        while q >= 0:
-            ck[m] = q
-            cl[m] = np.searchsorted(offsets, q, "right") - 1
-            cd[m] = abs(points[q, 0] - sx) + abs(points[q, 1] - sy)  # _nearer_end's, to the bit
-            m += 1
-            q = nxt[q]
-        # k moves if at most PER_LOOP - 1 of the sample's candidates of its loop come before
-        # it (nearer, then first), and its level is the level of the sample's nearest
-        # candidate (then the first)
-        best = 0
-        for i in range(m):
-            if cd[i] < cd[best]:
-                best = i
-        for i in range(m):
-            before = 0
-            for j in range(m):
-                if cl[j] == cl[i] and (cd[j] < cd[i] or (cd[j] == cd[i] and ck[j] < ck[i])):
-                    before += 1
-            if before < PER_LOOP and loop_level[cl[i]] == loop_level[cl[best]]:
-                moves[ck[i]] = True
+    if n == 0:
+        return moves
+    args = (points, below, above, band, offsets, loop_level, tol, wp, float(frac), int(band_rows))
+    workers = max(1, min(int(workers), n_loops))
+    cuts = np.unique(np.concatenate([[0], np.searchsorted(offsets, np.linspace(0, n, workers + 1)[1:-1]),
+                                     [n_loops]]))
+    runs = list(zip(cuts[:-1], cuts[1:]))
+    counts = np.zeros((len(runs), n_bands), np.int64)
+    _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], counts[i], _NO_CAND, False) for i in range(len(runs))])
+    per_band = counts.sum(axis=0)
+    start = np.concatenate([[0], np.cumsum(per_band)]).astype(np.int64)
+    fill = start[:-1] + np.cumsum(counts, axis=0) - counts  # each run's place in each band
+    cand = np.empty(int(start[-1]), np.int32)
+    _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], fill[i], cand, True) for i in range(len(runs))])
+    bcuts = np.unique(np.concatenate([[0], np.searchsorted(start, np.linspace(0, start[-1], workers + 1)[1:-1]),
+                                      [n_bands]]))
+    _threaded([lambda a=a, b=b: _decide(points, below, above, offsets, loop_level, wp, hp, int(band_rows),
+                                         cand, start, a, b, moves) for a, b in zip(bcuts[:-1], bcuts[1:])])
     return moves
+
+
+_NO_CAND = np.zeros(0, np.int32)
+
+
+def _threaded(jobs):
+    """Run the jobs (the kernels release the GIL), in threads when more than one."""
+    if len(jobs) == 1:
+        jobs[0]()
+        return
+    with ThreadPoolExecutor(max_workers=len(jobs)) as pool:
+        for f in [pool.submit(j) for j in jobs]:
+            f.result()
+
+
+@njit(cache=True, nogil=True)
+def _list(points, below, above, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill):
+    """The candidates of loops [l0, l1) band by band: counted (at[b] += 1 for each of band
+    b's) or, with ``fill``, listed into cand in point order, band b's from at[b] on."""
+    hp = band.shape[0] // wp
+    for lp in range(l0, l1):
+        lev = loop_level[lp]
+        for k in range(offsets[lp], offsets[lp + 1]):
+            s, r = _candidate(points, below, above, band, lev, k, wp, hp, frac, tol)
+            if s >= 0:
+                b = r // band_rows
+                if fill:
+                    cand[at[b]] = k
+                at[b] += 1
+
+
+@njit(cache=True, nogil=True)
+def _decide(points, below, above, offsets, loop_level, wp, hp, band_rows, cand, start, b0, b1, moves):
+    """The moves of the candidates of bands [b0, b1) (cand[start[b]:start[b + 1]]: band b's,
+    in point order)."""
+    widest = 0
+    for b in range(b0, b1):
+        widest = max(widest, start[b + 1] - start[b])
+    head = np.empty(min(band_rows, hp) * wp, np.int32)
+    nxt = np.empty(widest, np.int32)  # links between a band's candidates (their places in cand)
+    ck = np.empty(0, np.int64)  # one sample's candidates: point, loop, distance
+    cl = np.empty(0, np.int64)
+    cd = np.empty(0)
+    for b in range(b0, b1):
+        s0 = b * band_rows * wp
+        s1 = min((b + 1) * band_rows, hp) * wp
+        head[: s1 - s0] = -1
+        a0 = start[b]
+        for a in range(start[b + 1] - 1, a0 - 1, -1):  # pushed last first: chains in point order
+            s = _nearer(points, below, above, cand[a], wp)[0] - s0
+            nxt[a - a0] = head[s]
+            head[s] = a - a0
+        longest = 0
+        for s in range(s1 - s0):
+            m = 0
+            q = head[s]
+            while q >= 0:
+                m += 1
+                q = nxt[q]
+            longest = max(longest, m)
+        if longest > ck.shape[0]:
+            ck = np.empty(longest, np.int64)
+            cl = np.empty(longest, np.int64)
+            cd = np.empty(longest)
+        for s in range(s0, s1):
+            q = head[s - s0]
+            if q < 0:
+                continue
+            r = s // wp
+            sx = (s - r * wp - 1) * 0.5
+            sy = (r - 1) * 0.5
+            m = 0
+            while q >= 0:
+                k = cand[a0 + q]
+                ck[m] = k
+                cl[m] = np.searchsorted(offsets, k, "right") - 1
+                cd[m] = abs(points[k, 0] - sx) + abs(points[k, 1] - sy)  # _nearer's, to the bit
+                m += 1
+                q = nxt[q]
+            # k moves if at most PER_LOOP - 1 of the sample's candidates of its loop come before
+            # it (nearer, then first), and its level is the level of the sample's nearest
+            # candidate (then the first)
+            best = 0
+            for i in range(m):
+                if cd[i] < cd[best]:
+                    best = i
+            for i in range(m):
+                before = 0
+                for j in range(m):
+                    if cl[j] == cl[i] and (cd[j] < cd[i] or (cd[j] == cd[i] and ck[j] < ck[i])):
+                        before += 1
+                if before < PER_LOOP and loop_level[cl[i]] == loop_level[cl[best]]:
+                    moves[ck[i]] = True

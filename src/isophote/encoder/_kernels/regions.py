@@ -187,9 +187,10 @@ def region_stats_rows(labels, rows, m, step=ROWS):
 
 
 def region_deep(labels, m):
-    """region_stats' deepest sample and count per region (no values read)."""
-    deep = np.full(m, -1, np.int64)
-    count = np.zeros(m, np.int64)
+    """region_stats' deepest sample and count per region (no values read): int32 (flat
+    indices of a padded grid under 2**31 samples)."""
+    deep = np.full(m, -1, np.int32)
+    count = np.zeros(m, np.int32)
     _region_deep(labels, _chamfer(labels), deep, count)
     return deep, count
 
@@ -206,25 +207,33 @@ def value_sums_rows(labels, rows, want, L, ramp, step=ROWS):
     num = np.zeros(m)
     den = np.zeros(m)
     if want.any():
-        edge, hd, dmax, rad, far, has_edge = _cap_distances(labels, want, ramp)
+        ring, dmax, rad, far, has_edge = _cap_distances(labels, want, ramp)
     else:
-        edge, hd, dmax, rad, far, has_edge = (np.zeros((0, 0), np.bool_), np.zeros((0, 0), np.int16),
-                                              np.zeros(m), 0, 1, False)
+        ring, dmax, rad, far, has_edge = np.zeros((1, 0), np.int16), np.zeros(m), 0, 1, False
+    filled = np.zeros(1, np.int64)  # image rows of the ring's row distances made so far
     for r0 in range(1, hp - 1, step):
         r1 = min(r0 + step, hp - 1)
-        _value_sums(labels, rows(r0, r1), r0, r0, r1, total, want, has_edge, edge, hd, dmax, rad, far,
+        _value_sums(labels, rows(r0, r1), r0, r0, r1, total, want, has_edge, ring, filled, dmax, rad, far,
                     float(ramp), L, num, den)
     return total, num, den, has_edge
 
 
-@njit(cache=True, nogil=True)
 def _chamfer(labels):
-    """City-block steps of each image sample to the nearest edge sample (at most h + w + 1)."""
+    """City-block steps of each image sample to the nearest edge sample (at most h + w + 1):
+    2 bytes a sample where that bound fits (an image under about 32 000 pixels across its
+    width and height together), else 4 (far below 2**31 on any grid that fits in memory)."""
+    hp, wp = labels.shape
+    d = np.empty((hp - 2, wp - 2), np.uint16 if hp + wp - 3 < 65535 else np.int32)
+    _chamfer_into(labels, d)
+    return d
+
+
+@njit(cache=True, nogil=True)
+def _chamfer_into(labels, d):
     hp, wp = labels.shape
     h = hp - 2
     w = wp - 2
     far = h + w + 1
-    d = np.empty((h, w), np.int32)  # city-block steps: far below 2**31 on any grid that fits in memory
     for r in range(h):  # forward chamfer pass: edges are 0, the rest 1 + the nearer of up, left
         for c in range(w):
             if _is_edge(labels, r, c, h, w):
@@ -244,14 +253,13 @@ def _chamfer(labels):
             if c + 1 < w and d[r, c + 1] + 1 < v:
                 v = d[r, c + 1] + 1
             d[r, c] = min(v, far)
-    return d
 
 
 @njit(cache=True, nogil=True)
 def _region_deep(labels, d, deep, count):
     """region_stats' deepest sample (the first in scan order among equals) and count."""
     hp, wp = labels.shape
-    best = np.full(deep.shape[0], -1, np.int64)
+    best = np.full(deep.shape[0], -1, np.int32)
     for r in range(1, hp - 1):
         for c in range(1, wp - 1):
             k = labels[r, c]
@@ -262,36 +270,65 @@ def _region_deep(labels, d, deep, count):
 
 
 @njit(cache=True, nogil=True)
-def _value_sums(labels, wv, w0, r0, r1, total, want, has_edge, edge, hd, dmax, rad, far, ramp, L, num, den):
-    """value_sums_rows over padded rows [r0, r1) (wv: padded value rows from w0 on)."""
+def _value_sums(labels, wv, w0, r0, r1, total, want, has_edge, ring, filled, dmax, rad, far, ramp, L, num, den):
+    """value_sums_rows over padded rows [r0, r1) (wv: padded value rows from w0 on; ring and
+    filled: _cap_distances' ring of row distances and how many image rows it has made)."""
     h = labels.shape[0] - 2
     wp = labels.shape[1]
     for r in range(r0, r1):
+        if has_edge:
+            filled[0] = _fill_ring(labels, ring, filled[0], r - 1 + rad + 1, rad)
         for c in range(1, wp - 1):
             k = labels[r, c]
             v = wv[r - w0, c]
             total[k] += v
             if has_edge and want[k]:
-                f = min(1.0, _edge_distance(edge, hd, r - 1, c - 1, h, rad, far, ramp) / max(min(dmax[k], ramp), 1e-9))
+                f = min(1.0, _edge_distance(ring, r - 1, c - 1, h, rad, far, ramp) / max(min(dmax[k], ramp), 1e-9))
                 num[k] += (v - L[k]) * f
                 den[k] += f * f
 
 
 @njit(cache=True, nogil=True)
-def _edge_distance(edge, hd, r, c, h, rad, far, ramp):
-    """cap_sums' d at image sample (r, c): from the window's nearest edge sample (hd), ramp
-    when none lies within it."""
+def _edge_distance(ring, r, c, h, rad, far, ramp):
+    """cap_sums' d at image sample (r, c): from the window's nearest edge sample (the ring's
+    row distances of rows r - rad .. r + rad), ramp when none lies within it. An edge sample
+    has row distance 0, so its own d is the least, half a grid step."""
     best = far + 1
-    if edge[r, c]:
-        best = 0
-    else:
-        for rr in range(max(0, r - rad), min(h, r + rad + 1)):
-            e = hd[rr, c]
-            if e <= rad:
-                s = (rr - r) * (rr - r) + e * e
-                if s < best:
-                    best = s
+    nr = ring.shape[0]
+    for rr in range(max(0, r - rad), min(h, r + rad + 1)):
+        e = ring[rr % nr, c]
+        if e <= rad:
+            s = (rr - r) * (rr - r) + e * e
+            if s < best:
+                best = s
     return (math.sqrt(best) + 0.5) * 0.5 if best <= far else ramp
+
+
+@njit(cache=True, nogil=True)
+def _fill_ring(labels, ring, filled, upto, rad):
+    """Row distances of image rows [filled, upto) (at most the last) into the ring (row rr
+    in slot rr mod its rows): per sample the distance along its row to the nearest edge
+    sample within rad columns, rad + 1 when none, from one sweep each way. Returns the rows
+    made so far."""
+    h = labels.shape[0] - 2
+    w = labels.shape[1] - 2
+    none = rad + 1
+    nr = ring.shape[0]
+    upto = min(upto, h)
+    for r in range(filled, upto):
+        out = ring[r % nr]
+        last = -none - 1
+        for c in range(w):
+            if _is_edge(labels, r, c, h, w):
+                last = c
+            out[c] = min(c - last, none)
+        nxt = w + none + 1
+        for c in range(w - 1, -1, -1):
+            if out[c] == 0:  # an edge sample (none >= 1: the forward sweep gave 0 to those alone)
+                nxt = c
+            if nxt - c < out[c]:
+                out[c] = nxt - c
+    return max(filled, upto)
 
 
 def cap_sums(labels, vals, want, L, ramp):
@@ -315,56 +352,50 @@ def cap_sums_rows(labels, rows, want, L, ramp, step=ROWS):
     """cap_sums with the values read from a row source (label_regions_rows), summed in the
     same order."""
     if not want.any():  # nothing to sum: cap_sums still says whether the grid has an edge
-        return np.zeros(want.shape[0]), np.zeros(want.shape[0]), bool(_cap_distances(labels, want, ramp)[5])
+        return np.zeros(want.shape[0]), np.zeros(want.shape[0]), bool(_has_edge(labels))
     _, num, den, has_edge = value_sums_rows(labels, rows, want, L, ramp, step)
     return num, den, has_edge
 
 
 @njit(cache=True, nogil=True)
-def _cap_distances(labels, want, ramp):
-    """cap_sums' edge samples, row distances to them and each wanted region's dmax: (edge,
-    hd, dmax, rad, far, has_edge)."""
-    hp, wp = labels.shape
-    h = hp - 2
-    w = wp - 2
-    m = want.shape[0]
-    edge = np.zeros((h, w), np.bool_)
-    has_edge = False
+def _has_edge(labels):
+    """Has the grid an edge sample (is it more than one region)?"""
+    h = labels.shape[0] - 2
+    w = labels.shape[1] - 2
     for r in range(h):
         for c in range(w):
-            e = _is_edge(labels, r, c, h, w)
-            edge[r, c] = e
-            has_edge = has_edge or e
+            if _is_edge(labels, r, c, h, w):
+                return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _cap_distances(labels, want, ramp):
+    """cap_sums' window radius and each wanted region's dmax: (ring, dmax, rad, far,
+    has_edge). The window's nearest edge sample is found separably: a sample's row distance
+    is the distance along its row to the nearest edge sample within rad columns (rad + 1:
+    none), and the window minimum of dr^2 + dc^2 is the minimum over its rows of dr^2 plus
+    their row distance squared (the same value as scanning the whole window). The row
+    distances are made row by row into a ring of 2 rad + 1 rows (_fill_ring), here for
+    dmax and again for the sums, rather than held for the grid (12 bytes a pixel: the edge
+    flags and row distances); d is found twice rather than held (8 bytes a sample)."""
+    h = labels.shape[0] - 2
+    w = labels.shape[1] - 2
+    m = want.shape[0]
     rad = max(0, int(math.ceil(2.0 * ramp - 1.5)))
     far = (rad + 1) * (rad + 1)
     dmax = np.zeros(m)
-    if not has_edge:
-        return edge, np.empty((0, 0), np.int16), dmax, rad, far, False
-    # the window's nearest edge sample, separably: hd[r, c] is the distance along row r to
-    # the nearest edge sample within rad columns of c (rad + 1: none), from one sweep each
-    # way; the window minimum of dr^2 + dc^2 is then the minimum over its rows of
-    # dr^2 + hd^2 (the same value as scanning the whole window)
-    none = rad + 1
-    hd = np.empty((h, w), np.int16)
+    ring = np.zeros((2 * rad + 1, w), np.int16)
+    if not _has_edge(labels):
+        return ring, dmax, rad, far, False
+    filled = 0
     for r in range(h):
-        last = -none - 1
-        for c in range(w):
-            if edge[r, c]:
-                last = c
-            hd[r, c] = min(c - last, none)
-        nxt = w + none + 1
-        for c in range(w - 1, -1, -1):
-            if edge[r, c]:
-                nxt = c
-            if nxt - c < hd[r, c]:
-                hd[r, c] = nxt - c
-    # d is found twice, for dmax and for the sums, rather than held (8 bytes a sample)
-    for r in range(h):
+        filled = _fill_ring(labels, ring, filled, r + rad + 1, rad)
         for c in range(w):
             k = labels[r + 1, c + 1]
             if want[k]:
-                dmax[k] = max(dmax[k], _edge_distance(edge, hd, r, c, h, rad, far, ramp))
-    return edge, hd, dmax, rad, far, True
+                dmax[k] = max(dmax[k], _edge_distance(ring, r, c, h, rad, far, ramp))
+    return ring, dmax, rad, far, True
 
 
 @njit(cache=True, nogil=True)
@@ -379,15 +410,36 @@ def region_levels(labels, band, above, below, lev_seg, m):
     lo = np.full(m, np.iinfo(np.int64).max, np.int64)
     hi = np.full(m, -1, np.int64)
     for s in range(lev_seg.shape[0]):
-        lv = lev_seg[s]
-        a = above[s]
-        if bf[a] == lv + 1:
-            k = lab[a]
-            lo[k] = min(lo[k], lv)
-            hi[k] = max(hi[k], lv)
-        b = below[s]
-        if bf[b] == lv:
-            k = lab[b]
-            lo[k] = min(lo[k], lv)
-            hi[k] = max(hi[k], lv)
+        _bound(lab, bf, above[s], below[s], lev_seg[s], lo, hi)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _bound(lab, bf, a, b, lv, lo, hi):
+    """A crossing of level lv between samples b (below) and a (above) bounds the region of
+    a if a is in band lv + 1, and that of b if b is in band lv."""
+    if bf[a] == lv + 1:
+        k = lab[a]
+        lo[k] = min(lo[k], lv)
+        hi[k] = max(hi[k], lv)
+    if bf[b] == lv:
+        k = lab[b]
+        lo[k] = min(lo[k], lv)
+        hi[k] = max(hi[k], lv)
+
+
+@njit(cache=True, nogil=True)
+def loop_levels(labels, band, above, below, border, offsets, level, m):
+    """region_levels over the isoline (not border) segments of loops: loop i is segments
+    offsets[i] .. offsets[i + 1] - 1, of level level[i]. The same lowest and highest
+    levels (int32: levels are few), without a per-segment level or selection."""
+    lab = labels.ravel()
+    bf = band.ravel()
+    lo = np.full(m, np.iinfo(np.int32).max, np.int32)
+    hi = np.full(m, -1, np.int32)
+    for lp in range(offsets.shape[0] - 1):
+        lv = level[lp]
+        for s in range(offsets[lp], offsets[lp + 1]):
+            if not border[s]:
+                _bound(lab, bf, above[s], below[s], lv, lo, hi)
     return lo, hi
