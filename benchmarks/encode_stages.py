@@ -62,7 +62,7 @@ def stages(plane, name, opts, memory, report):
                 lambda: strip_isolines(p2, eps, lev, opts, budget.strip_rows(memory, plane.shape[1]), E.STRIP_WORKERS))
     del p2, eps
     if report:
-        held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "above", "below",
+        held = sum(getattr(iso, f).nbytes for f in ("points", "border", "tol", "level", "step", "below",
                                                     "band", "offsets"))
         print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | | | | |")
     held = [iso]  # as encode_channel: each part goes after the stage that reads it last

@@ -59,12 +59,13 @@ def source_meta(path, width: int, height: int, depth: int) -> dict:
     return {SOURCE: entry}
 
 
-def made_meta(given, path, raster) -> dict:
+def made_meta(given, path, raster, size=None) -> dict:
     """Everything the CLI's encode records: encoder_meta, source_meta and the source's
-    colour profile (icc.meta_for), for unresolved options ``given`` and an imageio.Raster."""
+    colour profile (icc.meta_for), for unresolved options ``given`` and an imageio.Raster
+    (whose pixels may be gone: then ``size``, (height, width), gives its size)."""
     from .icc import meta_for
 
-    h, w = raster.pixels.shape[:2]
+    h, w = size if size is not None else raster.pixels.shape[:2]
     return {**encoder_meta(given), **source_meta(path, w, h, raster.depth), **meta_for(raster.icc_profile)}
 
 

@@ -305,13 +305,13 @@ def _captured_encode(monkeypatch):
     """Replace the encoder with a recorder of the options cmd_encode passes."""
     import isophote.encoder as enc
 
-    seen, real = [], enc.encode_pixels
+    seen, real = [], enc.encode_pixels_held
 
-    def spy(pixels, depth, opts):
+    def spy(held, depth, opts):
         seen.append(opts)
-        return real(pixels, depth, opts)
+        return real(held, depth, opts)
 
-    monkeypatch.setattr(enc, "encode_pixels", spy)
+    monkeypatch.setattr(enc, "encode_pixels_held", spy)
     return seen
 
 

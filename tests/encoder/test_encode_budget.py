@@ -96,7 +96,7 @@ def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
             assert a.dtype == b.dtype and np.array_equal(a, b), max_points
         got = build_hierarchy_held(held, levels)
         assert len(held) == 1
-        assert all(getattr(held[0], f) is None for f in ("values", "band", "above", "below", "saddles"))
+        assert all(getattr(held[0], f) is None for f in ("values", "band", "step", "below", "saddles"))
         assert held[0].points is not None and held[0].border is not None
         for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
             a, b = getattr(tree, f), getattr(got, f)

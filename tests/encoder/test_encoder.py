@@ -760,9 +760,9 @@ def test_joint_reach_matches_its_twin(which):
     }[which]
     iso = isolines_of(img, preset_levels(5))
     tol = iso.tol * rng.uniform(0.5, 1.0, iso.tol.shape)
-    args = (iso.points, iso.below, iso.above, iso.band.ravel(), iso.offsets, iso.level, tol,
+    args = (iso.points, iso.below, iso.step, iso.band.ravel(), iso.offsets, iso.level, tol,
             iso.values.shape[1], 0.75)
-    fast, ref = joint_reach(*args), joint_reach_ref(*args)
+    fast, ref = joint_reach(*args), joint_reach_ref(*args[:2], iso.above, *args[3:])
     assert np.array_equal(fast, ref)
     assert np.all((fast == 0) | (fast == 0.75 * tol))
     if which in ("astronaut", "camera"):
@@ -874,3 +874,34 @@ def test_channels_one_at_a_time_when_memory_is_short(monkeypatch):
     monkeypatch.setattr(E, "available_memory", lambda: 1000)
     assert dumps(isophote.encode(img, preset="paper")) == both
     assert seen[0] == 1  # the channels' pool
+
+
+def test_encode_pixels_held_empties_its_list_and_gives_the_same_image(monkeypatch):
+    """The CLI hands its samples over (encode_pixels_held) so that the encoder can drop them
+    once they are YUV planes: the same image as encode_pixels, the list emptied, and the
+    samples gone (nothing refers to them) before the first channel is encoded."""
+    import gc
+    import weakref
+
+    import isophote.encoder as enc
+    from isophote.format.isoph import dumps
+    from isophote.options import EncodeOptions
+
+    opts = EncodeOptions(preset="balanced").resolved()
+    px = skimage.data.astronaut()[100:164, 120:200].astype(np.float64)
+    want = dumps(enc.encode_pixels(px.copy(), 8, opts))
+    held = [px.copy()]
+    ref = weakref.ref(held[0])
+    alive = []
+    real = enc.encode_channel
+
+    def channel(*a, **k):
+        gc.collect()
+        alive.append(ref() is not None)
+        return real(*a, **k)
+
+    monkeypatch.setattr(enc, "encode_channel", channel)
+    got = dumps(enc.encode_pixels_held(held, 8, opts))
+    assert got == want and held == [] and alive == [False, False, False]
+    with pytest.raises(ValueError):
+        enc.encode_pixels_held([px, px], 8, opts)

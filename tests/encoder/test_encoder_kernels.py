@@ -15,6 +15,7 @@ from isophote.encoder._kernels.marching import _cubic_t, march, march_loops
 from isophote.encoder._kernels.marching_ref import (
     _cubic_t as cubic_t_ref, march as march_ref, march_loops as march_loops_ref,
 )
+from isophote.encoder.isolines import above_of, step_codes
 from isophote.encoder._kernels.regions import cap_sums, label_regions, loop_levels, region_levels, region_stats
 from isophote.encoder._kernels.regions_ref import (
     cap_sums as cap_sums_ref, label_regions as label_regions_ref, region_levels as region_levels_ref,
@@ -213,14 +214,19 @@ def test_region_levels_and_cap_sums_match_their_twins(seed):
     lo, hi = region_levels(labels, band, above, below, lev_seg, m)
     lo_r, hi_r = region_levels_ref(labels, band, above, below, lev_seg, m)
     assert np.array_equal(lo, lo_r) and np.array_equal(hi, hi_r) and (hi >= 0).any()
-    # the encoder's loop by loop kernel: the same levels from loops, without border segments
+    # the encoder's loop by loop kernel: the same levels from loops, without border segments,
+    # each segment's above sample a 4-neighbour of its below one named by its step
+    below = rng.choice(inner, n)
+    step = rng.integers(0, 4, n).astype(np.int8)
+    above = above_of(below, step, wp)
+    assert np.array_equal(step_codes(below, above, wp), step)
     counts = rng.integers(1, 9, 40)
     offsets = np.concatenate([[0], np.cumsum(counts)])[: np.searchsorted(np.cumsum(counts), n) + 1]
     offsets[-1] = n
     loop_lev = rng.integers(0, len(levels), offsets.shape[0] - 1).astype(np.int32)
     per_seg = np.repeat(loop_lev, np.diff(offsets)).astype(np.int64)
     border = rng.random(n) < 0.2
-    lo_l, hi_l = loop_levels(labels, band, above, below, border, offsets, loop_lev, m)
+    lo_l, hi_l = loop_levels(labels, band, step, below, border, offsets, loop_lev, m)
     lo_r, hi_r = region_levels_ref(labels, band, above[~border], below[~border], per_seg[~border], m)
     assert np.array_equal(lo_l[hi_l >= 0], lo_r[hi_r >= 0]) and np.array_equal(hi_l, hi_r)
     assert (hi_l >= 0).sum() > 5

@@ -16,7 +16,7 @@ from isophote.options import EncodeOptions
 
 from test_encode_budget import texture
 
-FIELDS = ("points", "offsets", "border", "tol", "level", "above", "below", "band")
+FIELDS = ("points", "offsets", "border", "tol", "level", "step", "below", "band")
 
 
 @pytest.mark.parametrize("h, w", [(1, 1), (1, 5), (2, 3), (5, 1), (7, 9), (12, 17)])

@@ -110,7 +110,7 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from ..encoder import encode_pixels
+    from ..encoder import encode_pixels_held
     from ..format.isoph import dumps
     from ..imageio import read_image
     from ..provenance import made_meta
@@ -138,8 +138,10 @@ def run(args) -> int:
     if raster.noise_floor is not None and opts.noise_floor is None:
         opts = replace(opts, noise_floor=raster.noise_floor)  # a JPEG's quantisation error
         given = replace(given, noise_floor=raster.noise_floor)
-    vi = encode_pixels(raster.pixels, raster.depth, opts)
-    vi = replace(vi, meta=made_meta(given, "<stdin>" if args.input == "-" else args.input, raster))
+    held = [raster.pixels]  # the encoder drops the samples once they are YUV planes
+    raster = replace(raster, pixels=None)
+    vi = encode_pixels_held(held, raster.depth, opts)
+    vi = replace(vi, meta=made_meta(given, "<stdin>" if args.input == "-" else args.input, raster, (h, w)))
     job.progress(f"writing {shown(args.output)}")
     data = dumps(vi)
     write_output(args.output, data)

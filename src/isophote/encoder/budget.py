@@ -30,7 +30,7 @@ from ..errors import OptionError
 from ..shared.heap import MMAP_THRESHOLD, return_freed_memory, trim_heap  # noqa: F401 (the encoder's names)
 
 DEFAULT_MEMORY = "2G"  # a laptop's share: the target for a 16 MP photograph
-FIT_SHARE = 0.125
+FIT_SHARE = 0.0625
 # fit temporaries per point (encoder/__init__.py fit_isolines: the concatenated pieces,
 # their tolerances and reaches, index arrays and the fitter's scratch; measured 266 bytes a
 # pixel at 3.6 points a pixel on the 16 MP mosaic's crops)

@@ -101,7 +101,7 @@ ROW_CHUNK = 1 << 20  # segments segment_table rows at a time (bounds its tempora
 def crossing_levels(iso: Isolines, labels: np.ndarray, m: int):
     """The lowest and highest level of the isoline (not border) crossings that bound each
     region (region_levels' rule, loop by loop: _kernels/regions.py loop_levels)."""
-    return loop_levels(labels, iso.band, iso.above, iso.below, iso.border, iso.offsets, iso.level, m)
+    return loop_levels(labels, iso.band, iso.step, iso.below, iso.border, iso.offsets, iso.level, m)
 
 
 def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
@@ -134,7 +134,7 @@ def build_hierarchy_held(held: list, levels: np.ndarray, bounds=None) -> Hierarc
         m_b, lo, hi = bounds
         if m_b != m:
             raise RuntimeError("the regions' bounds are another grid's")  # a bug, never input
-    iso = replace(iso, above=None, below=None, saddles=None)
+    iso = replace(iso, step=None, below=None, saddles=None)
     lab = [labels]
     del labels
     caps = _caps(iso, levels, lab, m, lo, hi)

@@ -25,9 +25,11 @@ class Isolines:
     border : (N,) bool, per segment: runs along the image border.
     tol : (N,) float64, ribbon half-width at each point (pixels).
     level : (C,) int32 level index of each loop.
-    above, below : (N,) int32, per segment: the padded-grid samples at either end of the grid edge
-        its start point lies on (the above one on the segment's left); for border segments the
-        below one is padding.
+    below : (N,) int32, per segment: the padded-grid sample at the below end of the grid edge
+        its start point lies on (for border segments the padding); step : (N,) int8, which
+        4-neighbour of it the edge's other end, the above sample (on the segment's left), is
+        (STEP_RIGHT, STEP_LEFT, STEP_DOWN, STEP_UP: +1, -1, +Wp, -Wp; a byte a point rather
+        than the sample's 4); ``above`` gives those samples (above_of).
     band : (Hp, Wp) int16 padded band grid; values : (Hp, Wp) float64 padded grid (pad = 0), or
         a row source giving rows of it (encoder/strips.py GridRows; hierarchy.value_rows).
     base_band : the band of the root region; the loops of levels below it would lie wholly on
@@ -42,7 +44,7 @@ class Isolines:
     border: np.ndarray
     tol: np.ndarray
     level: np.ndarray
-    above: np.ndarray
+    step: np.ndarray
     below: np.ndarray
     band: np.ndarray
     values: object
@@ -50,11 +52,37 @@ class Isolines:
     saddles: np.ndarray | None = None
 
     @property
+    def above(self) -> np.ndarray:
+        """(N,) int32: the above sample of each segment's grid edge (a new array)."""
+        return above_of(self.below, self.step, self.band.shape[1])
+
+    @property
     def n_loops(self) -> int:
         return int(self.level.shape[0])
 
     def loop(self, i: int) -> np.ndarray:
         return self.points[self.offsets[i] : self.offsets[i + 1]]
+
+
+STEP_RIGHT, STEP_LEFT, STEP_DOWN, STEP_UP = 0, 1, 2, 3
+
+
+def step_codes(below: np.ndarray, above: np.ndarray, wp: int) -> np.ndarray:
+    """(N,) int8: which 4-neighbour of its below sample each above sample is (Isolines.step;
+    padded grid rows of ``wp`` samples)."""
+    d = np.asarray(above, np.int64) - below
+    code = np.full(d.shape, -1, np.int8)
+    for c, delta in ((STEP_RIGHT, 1), (STEP_LEFT, -1), (STEP_DOWN, wp), (STEP_UP, -wp)):
+        code[d == delta] = c
+    if np.any(code < 0):
+        raise RuntimeError("a crossing's samples are not 4-neighbours")  # a bug, never input
+    return code
+
+
+def above_of(below: np.ndarray, step: np.ndarray, wp: int) -> np.ndarray:
+    """The above samples (int32) of below samples and their step codes (step_codes')."""
+    delta = np.array([1, -1, wp, -wp], np.int64)
+    return (below + delta[step]).astype(np.int32)
 
 
 def pad_grid(grid: np.ndarray, levels: np.ndarray):
@@ -89,7 +117,7 @@ def find_isolines(grid, grid_eps, levels, min_tol=0.05, max_tol=0.5) -> Isolines
         border=border,
         tol=tolerances(eps_b, eps_a, grad_b, grad_a, t, min_tol, max_tol),
         level=level,
-        above=above,
+        step=step_codes(below, above, band.shape[1]),
         below=below,
         band=band,
         values=vals,

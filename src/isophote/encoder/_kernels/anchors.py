@@ -24,24 +24,23 @@ PER_LOOP = 2
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _nearer(points, below, above, k, wp):
+def _nearer(points, below, step, k, wp):
     """Crossing k's nearer grid sample S (the lower-numbered one on ties), S's row and
-    column and its city-block distance. The two samples are 4-neighbours: one division finds
-    both rows (the same values as dividing each)."""
+    column and its city-block distance. Its edge runs from its below sample to the
+    4-neighbour that step[k] names (isolines.py: +1, -1, +wp, -wp): one division finds both
+    samples' rows."""
     lo = below[k]
-    hi = above[k]
     rl = lo // wp
     cl = lo - rl * wp
-    d = hi - lo
-    if d == 1 or d == -1:
-        rh = rl
-    elif d == wp:
-        rh = rl + 1
-    elif d == -wp:
-        rh = rl - 1
+    code = step[k]
+    if code == 0:
+        hi, rh, ch = lo + 1, rl, cl + 1
+    elif code == 1:
+        hi, rh, ch = lo - 1, rl, cl - 1
+    elif code == 2:
+        hi, rh, ch = lo + wp, rl + 1, cl
     else:
-        rh = hi // wp
-    ch = hi - rh * wp
+        hi, rh, ch = lo - wp, rl - 1, cl
     a = abs(points[k, 0] - (cl - 1) * 0.5) + abs(points[k, 1] - (rl - 1) * 0.5)
     b = abs(points[k, 0] - (ch - 1) * 0.5) + abs(points[k, 1] - (rh - 1) * 0.5)
     if a < b or (a == b and lo < hi):
@@ -49,9 +48,9 @@ def _nearer(points, below, above, k, wp):
     return hi, rh, ch, b
 
 
-def joint_reach(points, below, above, band, offsets, loop_level, tol, wp, frac, workers=1):
+def joint_reach(points, below, step, band, offsets, loop_level, tol, wp, frac, workers=1):
     """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
-    moves = joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac, workers=workers)
+    moves = joint_moves(points, below, step, band, offsets, loop_level, tol, wp, frac, workers=workers)
     return np.where(moves, frac * tol, 0.0)
 
 
@@ -61,21 +60,22 @@ BAND_ROWS = 256
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _candidate(points, below, above, band, lev, k, wp, hp, frac, tol):
+def _candidate(points, below, step, band, lev, k, wp, hp, frac, tol):
     """Crossing k's nearer sample and its row if it is a candidate to move there (within
     frac of its tolerance, in the band next to its level, inside the image), else (-1, -1)."""
-    s, r, c, d = _nearer(points, below, above, k, wp)
+    s, r, c, d = _nearer(points, below, step, k, wp)
     if (d <= frac * tol[k] and 1 < r < hp - 2 and 1 < c < wp - 2
             and band[s] == (lev if s == below[k] else lev + 1)):
         return s, r
     return -1, -1
 
 
-def joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1):
+def joint_moves(points, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1):
     """(N,) bool: the crossings that may move (joint_reach's, a byte a crossing: the encoder
     holds this and makes the reaches batch by batch).
 
-    Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]. A sample's decision
+    Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]; crossing k lies on
+    the grid edge from below[k] to its 4-neighbour step[k] (isolines.py). A sample's decision
     reads its own candidates alone, in point order, so the samples are taken ``band_rows``
     rows at a time: the candidates are listed band by band in point order (4 bytes a
     candidate), and each band chains its own per sample (4 bytes a sample of the band and a
@@ -90,7 +90,7 @@ def joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac, 
     moves = np.zeros(n, np.bool_)
     if n == 0:
         return moves
-    args = (points, below, above, band, offsets, loop_level, tol, wp, float(frac), int(band_rows))
+    args = (points, below, step, band, offsets, loop_level, tol, wp, float(frac), int(band_rows))
     workers = max(1, min(int(workers), n_loops))
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offsets, np.linspace(0, n, workers + 1)[1:-1]),
                                      [n_loops]]))
@@ -104,7 +104,7 @@ def joint_moves(points, below, above, band, offsets, loop_level, tol, wp, frac, 
     _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], fill[i], cand, True) for i in range(len(runs))])
     bcuts = np.unique(np.concatenate([[0], np.searchsorted(start, np.linspace(0, start[-1], workers + 1)[1:-1]),
                                       [n_bands]]))
-    _threaded([lambda a=a, b=b: _decide(points, below, above, offsets, loop_level, wp, hp, int(band_rows),
+    _threaded([lambda a=a, b=b: _decide(points, below, step, offsets, loop_level, wp, hp, int(band_rows),
                                          cand, start, a, b, moves) for a, b in zip(bcuts[:-1], bcuts[1:])])
     return moves
 
@@ -123,14 +123,14 @@ def _threaded(jobs):
 
 
 @njit(cache=True, nogil=True)
-def _list(points, below, above, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill):
+def _list(points, below, step, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill):
     """The candidates of loops [l0, l1) band by band: counted (at[b] += 1 for each of band
     b's) or, with ``fill``, listed into cand in point order, band b's from at[b] on."""
     hp = band.shape[0] // wp
     for lp in range(l0, l1):
         lev = loop_level[lp]
         for k in range(offsets[lp], offsets[lp + 1]):
-            s, r = _candidate(points, below, above, band, lev, k, wp, hp, frac, tol)
+            s, r = _candidate(points, below, step, band, lev, k, wp, hp, frac, tol)
             if s >= 0:
                 b = r // band_rows
                 if fill:
@@ -139,7 +139,7 @@ def _list(points, below, above, band, offsets, loop_level, tol, wp, frac, band_r
 
 
 @njit(cache=True, nogil=True)
-def _decide(points, below, above, offsets, loop_level, wp, hp, band_rows, cand, start, b0, b1, moves):
+def _decide(points, below, step, offsets, loop_level, wp, hp, band_rows, cand, start, b0, b1, moves):
     """The moves of the candidates of bands [b0, b1) (cand[start[b]:start[b + 1]]: band b's,
     in point order)."""
     widest = 0
@@ -156,7 +156,7 @@ def _decide(points, below, above, offsets, loop_level, wp, hp, band_rows, cand, 
         head[: s1 - s0] = -1
         a0 = start[b]
         for a in range(start[b + 1] - 1, a0 - 1, -1):  # pushed last first: chains in point order
-            s = _nearer(points, below, above, cand[a], wp)[0] - s0
+            s = _nearer(points, below, step, cand[a], wp)[0] - s0
             nxt[a - a0] = head[s]
             head[s] = a - a0
         longest = 0

@@ -429,17 +429,21 @@ def _bound(lab, bf, a, b, lv, lo, hi):
 
 
 @njit(cache=True, nogil=True)
-def loop_levels(labels, band, above, below, border, offsets, level, m):
+def loop_levels(labels, band, step, below, border, offsets, level, m):
     """region_levels over the isoline (not border) segments of loops: loop i is segments
-    offsets[i] .. offsets[i + 1] - 1, of level level[i]. The same lowest and highest
-    levels (int32: levels are few), without a per-segment level or selection."""
+    offsets[i] .. offsets[i + 1] - 1, of level level[i]; a segment's above sample is the
+    4-neighbour of its below one that its step names (isolines.py: +1, -1, +Wp, -Wp). The
+    same lowest and highest levels (int32: levels are few), without a per-segment level,
+    above sample or selection."""
     lab = labels.ravel()
     bf = band.ravel()
+    wp = band.shape[1]
+    delta = np.array([1, -1, wp, -wp], np.int64)
     lo = np.full(m, np.iinfo(np.int32).max, np.int32)
     hi = np.full(m, -1, np.int32)
     for lp in range(offsets.shape[0] - 1):
         lv = level[lp]
         for s in range(offsets[lp], offsets[lp + 1]):
             if not border[s]:
-                _bound(lab, bf, above[s], below[s], lv, lo, hi)
+                _bound(lab, bf, below[s] + delta[step[s]], below[s], lv, lo, hi)
     return lo, hi
