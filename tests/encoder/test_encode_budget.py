@@ -75,8 +75,8 @@ def test_fit_batches_give_the_chains_of_one_batch():
 def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
     """The encoder's path that drops what it has read gives the hierarchy and chains of
     build_hierarchy and fit_isolines, batched or not: the fit first (the tolerances, made
-    the fitter's in place, go), then the hierarchy (the crossings' grid samples and saddle
-    joins go once the regions' levels are found, the values and bands after the caps)."""
+    the fitter's in place, go), then the hierarchy (the saddle joins go once the regions'
+    levels are found; the values, the bands and the points' compact form after the caps)."""
     from isophote.encoder.hierarchy import build_hierarchy, build_hierarchy_held
 
     opts, levels, grid, grid_eps = _plane_grid(preset)
@@ -96,8 +96,8 @@ def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
             assert a.dtype == b.dtype and np.array_equal(a, b), max_points
         got = build_hierarchy_held(held, levels)
         assert len(held) == 1
-        assert all(getattr(held[0], f) is None for f in ("values", "band", "step", "below", "saddles"))
-        assert held[0].points is not None and held[0].border is not None
+        assert all(getattr(held[0], f) is None for f in ("values", "band", "along", "step", "below", "saddles"))
+        assert held[0].offsets is not None and held[0].border is not None
         for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
             a, b = getattr(tree, f), getattr(got, f)
             assert a.dtype == b.dtype and np.array_equal(a, b), f
@@ -105,7 +105,7 @@ def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
         # the encoder's: the regions' bounds found before the fit, the grid samples gone then
         held = [fresh()]
         fitted, bounds = E.fit_bounded(held, levels, opts.snap, max_points)
-        assert held[0].tol is None and held[0].below is None and held[0].band is not None
+        assert held[0].tol is None and held[0].below is not None and held[0].band is not None
         for a, b in zip(chains, fitted):
             assert a.dtype == b.dtype and np.array_equal(a, b), max_points
         got = build_hierarchy_held(held, levels, bounds)

@@ -760,9 +760,9 @@ def test_joint_reach_matches_its_twin(which):
     }[which]
     iso = isolines_of(img, preset_levels(5))
     tol = iso.tol * rng.uniform(0.5, 1.0, iso.tol.shape)
-    args = (iso.points, iso.below, iso.step, iso.band.ravel(), iso.offsets, iso.level, tol,
+    args = (iso.along, iso.below, iso.step, iso.band.ravel(), iso.offsets, iso.level, tol,
             iso.values.shape[1], 0.75)
-    fast, ref = joint_reach(*args), joint_reach_ref(*args[:2], iso.above, *args[3:])
+    fast, ref = joint_reach(*args), joint_reach_ref(iso.points, iso.below, iso.above, *args[3:])
     assert np.array_equal(fast, ref)
     assert np.all((fast == 0) | (fast == 0.75 * tol))
     if which in ("astronaut", "camera"):

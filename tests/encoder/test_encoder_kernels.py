@@ -336,3 +336,33 @@ def test_innermost_enclosing_rows_equals_rays(seed):
     assert (rows >= 0).sum() > n // 2
 
 
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_points_are_their_compact_form_to_the_bit(seed):
+    """Isolines hold a crossing as its edge's below sample, which 4-neighbour the above one
+    is (step) and its coordinate along the edge (along): the other coordinate is the below
+    sample's, so points_of gives the march's points back to the bit, border points (whose
+    below sample is padding) included, and above_of its above samples."""
+    from isophote.encoder.isolines import along_of, find_isolines, pad_grid, points_of, xy_in_place
+    from isophote.encoder.levels import preset_levels
+    from isophote.encoder.mapping import map_pixels
+
+    rng = np.random.default_rng(900 + seed)
+    img = np.clip(rng.normal(128, 60, (17, 23)), 0, 255)
+    levels = preset_levels(16)
+    grid, grid_eps = map_pixels(img, 0.5)
+    vals, band = pad_grid(grid, levels)
+    raw = march_loops(vals, band, np.asarray(levels, np.float64), grid, np.broadcast_to(grid_eps, grid.shape).copy())
+    points, border, below, above = raw[1], raw[2], raw[3], raw[4]
+    wp = band.shape[1]
+    step = step_codes(below, above, wp)
+    assert np.array_equal(above_of(below, step, wp), above)
+    got = points_of(below, step, along_of(points, step), wp)
+    assert got.tobytes() == points.tobytes()
+    assert border.any() and (step <= 1).any() and (step >= 2).any()
+    iso = find_isolines(grid, grid_eps, levels)
+    assert iso.points.tobytes() == points.tobytes()
+    along = along_of(points, step)
+    x, y = xy_in_place(along, below, step, wp)  # x made in along's memory
+    assert x is along and x.tobytes() == points[:, 0].copy().tobytes() and y.tobytes() == points[:, 1].copy().tobytes()

@@ -97,3 +97,5 @@ def test_polyline_areas_kernel_is_its_numpy_twin_to_the_bit():
         pts[on_grid] = np.round(pts[on_grid] * 2) / 2
         got = polyline_areas(pts, offsets)
         assert got.tobytes() == areas_ref.polyline_areas(pts, offsets).tobytes()
+        xy = (np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]))
+        assert polyline_areas(xy, offsets).tobytes() == got.tobytes()

@@ -26,7 +26,7 @@ from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy, build_hierarchy_held, region_bounds
-from .isolines import Isolines
+from .isolines import Isolines, points_of
 from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
 from .strips import strip_isolines
 from .levels import channel_levels
@@ -252,7 +252,7 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     if iso.n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
     tol = fit_tolerances(iso.tol, np.empty_like(iso.tol))
-    return fit_loops(iso.points, iso.offsets, iso.border, tol, _joint_moves(iso, tol), snap, max_points)
+    return fit_loops(point_rows(iso), iso.offsets, iso.border, tol, _joint_moves(iso, tol), snap, max_points)
 
 
 def fit_first(held: list, snap: float, max_points: int | None = None):
@@ -264,22 +264,29 @@ def fit_first(held: list, snap: float, max_points: int | None = None):
     tol = fit_tolerances(iso.tol, iso.tol)
     moves = _joint_moves(iso, tol)
     held.append(replace(iso, tol=None))
-    points, offsets, border = iso.points, iso.offsets, iso.border
+    points, offsets, border = point_rows(iso), iso.offsets, iso.border
     del iso
     return fit_loops(points, offsets, border, tol, moves, snap, max_points)
 
 
+def point_rows(iso: Isolines):
+    """A row source of an Isolines' points: rows(a, b) is iso.points[a:b], made from its
+    compact form (isolines.points_of) for those rows alone."""
+    along, below, step, wp = iso.along, iso.below, iso.step, iso.band.shape[1]
+    return lambda a, b: points_of(below[a:b], step[a:b], along[a:b], wp)
+
+
 def fit_bounded(held: list, levels: np.ndarray, snap: float, max_points: int | None = None):
     """fit_first, with the regions' bounding levels found between the joint moves and the
-    fit (hierarchy.region_bounds): the crossings' grid samples (8 bytes a point), which
-    the fit does not read, go before it. Returns fit_first's (points, offsets, border) and
+    fit (hierarchy.region_bounds), so that the hierarchy labels the regions beside the
+    polylines without their tolerances. Returns fit_first's (points, offsets, border) and
     the bounds for hierarchy.build_hierarchy_held (same result)."""
     iso = held.pop()
     tol = fit_tolerances(iso.tol, iso.tol)
     moves = _joint_moves(iso, tol)
     bounds = region_bounds(iso, levels)
-    held.append(replace(iso, tol=None, step=None, below=None))
-    points, offsets, border = iso.points, iso.offsets, iso.border
+    held.append(replace(iso, tol=None))
+    points, offsets, border = point_rows(iso), iso.offsets, iso.border
     del iso
     return fit_loops(points, offsets, border, tol, moves, snap, max_points), bounds
 
@@ -297,7 +304,8 @@ def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 
 def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None):
-    """Fit the loops of an Isolines (its points, offsets and border flags) given the fitter's
+    """Fit the loops of an Isolines (its points, or a row source of them, point_rows';
+    offsets and border flags) given the fitter's
     tolerances (fit_tolerances) and which joints may move (_joint_moves; their reaches,
     _joint_reach's, are made batch by batch and capped by the joint rounding there).
     Returns (points, offsets, border) in the Channel layout.
@@ -309,8 +317,10 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
     n_loops = offs.shape[0] - 1
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
+    if not callable(points):
+        points = (lambda p: lambda a, b: p[a:b])(points)
     if max_points is None or offs[-1] <= max_points:
-        return _fit_batch(points, offs, border, tol, _reaches(tol, moves), snap)
+        return _fit_batch(points(0, int(offs[-1])), offs, border, tol, _reaches(tol, moves), snap)
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
                                                           "right") - 1, [n_loops]]))
     cuts = cuts[(cuts >= 0)]
@@ -319,7 +329,7 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
         if i1 <= i0:
             continue
         o0, o1 = offs[i0], offs[i1]
-        p, o, b = _fit_batch(points[o0:o1], offs[i0 : i1 + 1] - o0, border[o0:o1],
+        p, o, b = _fit_batch(points(o0, o1), offs[i0 : i1 + 1] - o0, border[o0:o1],
                              tol[o0:o1], _reaches(tol[o0:o1], moves[o0:o1]), snap)
         pts.append(p)
         off.append(o[1:] + base)
@@ -463,7 +473,7 @@ def _joint_moves(iso: Isolines, tol: np.ndarray) -> np.ndarray:
 
 
 def _anchor_args(iso: Isolines, tol: np.ndarray) -> tuple:
-    return (iso.points, iso.below, iso.step, iso.band.ravel(), iso.offsets, iso.level, tol,
+    return (iso.along, iso.below, iso.step, iso.band.ravel(), iso.offsets, iso.level, tol,
             iso.band.shape[1], ANCHOR_REACH)
 
 

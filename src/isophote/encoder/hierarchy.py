@@ -26,7 +26,7 @@ from ._kernels.enclose import (
 from ._kernels.regions import (
     label_regions_rows, label_regions_saddles, loop_levels, region_deep, value_sums_rows, whole,
 )
-from .isolines import Isolines
+from .isolines import Isolines, xy_in_place
 
 
 @dataclass(frozen=True)
@@ -61,17 +61,20 @@ def _cap_fit(num, den, has_edge, rows, labels, regs, L):
     return np.clip(out, 0.0, 255.0)
 
 
-def segment_table(iso: Isolines, n_rows: int | None = None):
+def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
     """Segments as (x, y, loop_start, loop) arrays and their bucketing by half-pixel grid
     row: segment s runs from point s, (x[s], y[s]), to the next point of its loop (its
     loop's first, loop_start[loop[s]], after its last: successors); its row is that of its
-    upper end, clamped to the n_rows rows (by default those of the Isolines' band grid).
+    upper end, clamped to the n_rows rows (by default those of the Isolines' band grid);
+    ``xy``: the points' x and y, where the caller has made them.
 
-    x and y are views of the points; loop and the row order are int32 (a channel's points
+    x and y are views of the points (or the caller's); loop and the row order are int32 (a channel's points
     and loops are far below 2**31): 8 bytes a point in all."""
-    p = iso.points
-    n = p.shape[0]
-    x, y = p[:, 0], p[:, 1]
+    if xy is None:
+        p = iso.points
+        xy = p[:, 0], p[:, 1]
+    x, y = xy
+    n = x.shape[0]
     loop_start = np.ascontiguousarray(iso.offsets[:-1], np.int64)
     seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
     if n_rows is None:
@@ -115,7 +118,8 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     """
     labels, m = _labels(iso, levels)
     lo, hi = crossing_levels(iso, labels, m)
-    return _enclosing(iso, *_caps(iso, levels, [labels], m, lo, hi))
+    p = iso.points
+    return _enclosing(iso, (p[:, 0], p[:, 1]), *_caps(iso, levels, [labels], m, lo, hi))
 
 
 def build_hierarchy_held(held: list, levels: np.ndarray, bounds=None) -> Hierarchy:
@@ -134,15 +138,19 @@ def build_hierarchy_held(held: list, levels: np.ndarray, bounds=None) -> Hierarc
         m_b, lo, hi = bounds
         if m_b != m:
             raise RuntimeError("the regions' bounds are another grid's")  # a bug, never input
-    iso = replace(iso, step=None, below=None, saddles=None)
+    iso = replace(iso, saddles=None)
     lab = [labels]
     del labels
     caps = _caps(iso, levels, lab, m, lo, hi)
     del lo, hi
     n_rows = max(iso.band.shape[0] - 3, 1)
-    held.append(replace(iso, values=None, band=None))
+    wp = iso.band.shape[1]
+    iso = replace(iso, values=None, band=None)  # the plane and the bands go first
+    # the points' x and y (x in along's memory), the compact form's samples going with them
+    xy = xy_in_place(iso.along, iso.below, iso.step, wp)
+    held.append(replace(iso, along=None, below=None, step=None))
     del iso
-    return _enclosing(held[0], *caps, n_rows=n_rows)
+    return _enclosing(held[0], xy, *caps, n_rows=n_rows)
 
 
 def region_bounds(iso: Isolines, levels: np.ndarray):
@@ -205,14 +213,14 @@ def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, lo: np.ndarray, 
     return m, np.asarray(cap_band, np.int32), cap_xy, np.asarray(cap_value, np.float64)
 
 
-def _enclosing(iso: Isolines, m, cap_band, cap_xy, cap_value, n_rows=None) -> Hierarchy:
+def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -> Hierarchy:
     """The parents of the loops and the caps' enclosing contours, from the loops' geometry
     (the caps' regions labelled first: the region labels and the segment table are not held
     at once)."""
     c = iso.n_loops
     lev_loop = iso.level.astype(np.int64)
-    area = loop_areas(iso)
-    x, y, loop_start, seg_loop, row_start, row_order, n_rows = segment_table(iso, n_rows)
+    area = polyline_areas(xy, iso.offsets)
+    x, y, loop_start, seg_loop, row_start, row_order, n_rows = segment_table(iso, n_rows, xy)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
     parent, seen = sweep_enclosing(x, y, loop_start, seg_loop, row_start, row_order, lev_loop, c, n_rows)

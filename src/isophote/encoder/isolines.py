@@ -20,8 +20,11 @@ from .ribbon import tolerances
 class Isolines:
     """Closed polylines of one channel.
 
-    points : (N, 2) float64; loop i is points[offsets[i]:offsets[i+1]] (first point not repeated);
-        segment k of a loop runs from its point k to point k+1 (cyclically).
+    along : (N,) float64, each point's coordinate along the grid edge it lies on (x on a
+        horizontal edge, y on a vertical one); its other coordinate is its below sample's
+        (``points``, points_of: 8 bytes a point rather than 16). Loop i is points
+        offsets[i] .. offsets[i + 1] - 1 (first point not repeated); segment k of a loop runs
+        from its point k to point k+1 (cyclically).
     border : (N,) bool, per segment: runs along the image border.
     tol : (N,) float64, ribbon half-width at each point (pixels).
     level : (C,) int32 level index of each loop.
@@ -39,7 +42,7 @@ class Isolines:
         without the values (the strips record them).
     """
 
-    points: np.ndarray
+    along: np.ndarray
     offsets: np.ndarray
     border: np.ndarray
     tol: np.ndarray
@@ -50,6 +53,11 @@ class Isolines:
     values: object
     base_band: int = 0
     saddles: np.ndarray | None = None
+
+    @property
+    def points(self) -> np.ndarray:
+        """(N, 2) float64: the points (a new array; points_of)."""
+        return points_of(self.below, self.step, self.along, self.band.shape[1])
 
     @property
     def above(self) -> np.ndarray:
@@ -85,6 +93,45 @@ def above_of(below: np.ndarray, step: np.ndarray, wp: int) -> np.ndarray:
     return (below + delta[step]).astype(np.int32)
 
 
+def along_of(points: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Each point's coordinate along its grid edge (Isolines.along): x where the edge is
+    horizontal (step STEP_RIGHT or STEP_LEFT), y where it is vertical."""
+    return np.where(step <= STEP_LEFT, points[:, 0], points[:, 1])
+
+
+POINTS_CHUNK = 1 << 20  # points points_of makes at a time (bounds its temporaries)
+
+
+def points_of(below: np.ndarray, step: np.ndarray, along: np.ndarray, wp: int) -> np.ndarray:
+    """(N, 2) float64 points from their edges (below samples of a padded grid of ``wp``
+    samples a row, step codes) and coordinates along them: the other coordinate is the
+    below sample's, (c - 1) / 2 or (r - 1) / 2, exactly what the march gives a crossing of
+    that edge (both ends of a horizontal edge share their row, of a vertical one their
+    column)."""
+    n = along.shape[0]
+    out = np.empty((n, 2))
+    for a in range(0, n, POINTS_CHUNK):
+        b = min(a + POINTS_CHUNK, n)
+        r, c = np.divmod(below[a:b].astype(np.int64), wp)
+        horizontal = step[a:b] <= STEP_LEFT
+        out[a:b, 0] = np.where(horizontal, along[a:b], (c - 1) * 0.5)
+        out[a:b, 1] = np.where(horizontal, (r - 1) * 0.5, along[a:b])
+    return out
+
+
+def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int):
+    """(x, y): points_of's columns, y a new array and x made in ``along``'s own memory (which
+    it consumes): 8 bytes a point beside the compact form rather than 16."""
+    y = np.empty_like(along)
+    for a in range(0, along.shape[0], POINTS_CHUNK):
+        b = min(a + POINTS_CHUNK, along.shape[0])
+        r, c = np.divmod(below[a:b].astype(np.int64), wp)
+        horizontal = step[a:b] <= STEP_LEFT
+        y[a:b] = np.where(horizontal, (r - 1) * 0.5, along[a:b])
+        along[a:b] = np.where(horizontal, along[a:b], (c - 1) * 0.5)
+    return along, y
+
+
 def pad_grid(grid: np.ndarray, levels: np.ndarray):
     """Padded values and bands: a ring of band 0 (below every level) around the grid."""
     return pad_bands(np.ascontiguousarray(grid, np.float64), np.ascontiguousarray(levels, np.float64))
@@ -111,13 +158,14 @@ def find_isolines(grid, grid_eps, levels, min_tol=0.05, max_tol=0.5) -> Isolines
     base = frame_levels.shape[0]
     if base and not np.array_equal(np.sort(frame_levels), np.arange(base)):
         raise RuntimeError("frame loops are not the lowest levels")  # a bug, never input
+    step = step_codes(below, above, band.shape[1])
     return Isolines(
-        points=points,
+        along=along_of(points, step),
         offsets=offsets,
         border=border,
         tol=tolerances(eps_b, eps_a, grad_b, grad_a, t, min_tol, max_tol),
         level=level,
-        step=step_codes(below, above, band.shape[1]),
+        step=step,
         below=below,
         band=band,
         values=vals,

@@ -28,7 +28,7 @@ def merge_loops(parts) -> dict:
     out = {"offsets": offsets, "level": np.concatenate([p["level"] for p in parts])[order]}
     n_out = int(offsets[-1])
     first = np.cumsum([0] + [p["offsets"].shape[0] - 1 for p in parts])
-    for name in ("points", "tol", "below", "step", "border"):
+    for name in ("along", "tol", "below", "step", "border"):
         sample = parts[0][name]
         dest = np.empty((n_out,) + sample.shape[1:], sample.dtype)
         for k, p in enumerate(parts):

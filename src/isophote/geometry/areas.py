@@ -75,17 +75,22 @@ def segment_moments(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return cubic_moments(*(points[first + i] for i in range(4)))
 
 
-def polyline_areas(points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+def polyline_areas(points, offsets: np.ndarray) -> np.ndarray:
     """(C,) signed shoelace areas of closed polylines (loop k: ``points[offsets[k]:offsets[k+1]]``,
-    its last point joined back to its first).
+    its last point joined back to its first; ``points`` (P, 2), or the pair of their x and
+    y arrays).
 
     A kernel: one running sum of the cross products over all loops in order, each loop's
     area half the sum's growth over it (the bits of areas_ref.polyline_areas, NumPy's
     cumulative sum, on which the hierarchy's tie-breaks depend; no array a point: the loops
     of a whole channel come here)."""
     out = np.empty(offsets.shape[0] - 1)
-    p = np.ascontiguousarray(points, np.float64)
-    _polyline_areas(p[:, 0], p[:, 1], np.ascontiguousarray(offsets, np.int64), out)
+    if isinstance(points, tuple):
+        x, y = points
+    else:
+        p = np.ascontiguousarray(points, np.float64)
+        x, y = p[:, 0], p[:, 1]
+    _polyline_areas(x, y, np.ascontiguousarray(offsets, np.int64), out)
     return out
 
 

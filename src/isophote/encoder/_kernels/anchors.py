@@ -24,10 +24,11 @@ PER_LOOP = 2
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _nearer(points, below, step, k, wp):
+def _nearer(along, below, step, k, wp):
     """Crossing k's nearer grid sample S (the lower-numbered one on ties), S's row and
     column and its city-block distance. Its edge runs from its below sample to the
-    4-neighbour that step[k] names (isolines.py: +1, -1, +wp, -wp): one division finds both
+    4-neighbour that step[k] names (isolines.py: +1, -1, +wp, -wp), and the crossing lies
+    ``along`` it (its other coordinate is the below sample's): one division finds both
     samples' rows."""
     lo = below[k]
     rl = lo // wp
@@ -41,16 +42,25 @@ def _nearer(points, below, step, k, wp):
         hi, rh, ch = lo + wp, rl + 1, cl
     else:
         hi, rh, ch = lo - wp, rl - 1, cl
-    a = abs(points[k, 0] - (cl - 1) * 0.5) + abs(points[k, 1] - (rl - 1) * 0.5)
-    b = abs(points[k, 0] - (ch - 1) * 0.5) + abs(points[k, 1] - (rh - 1) * 0.5)
+    x, y = _xy(along, code, k, rl, cl)
+    a = abs(x - (cl - 1) * 0.5) + abs(y - (rl - 1) * 0.5)
+    b = abs(x - (ch - 1) * 0.5) + abs(y - (rh - 1) * 0.5)
     if a < b or (a == b and lo < hi):
         return lo, rl, cl, a
     return hi, rh, ch, b
 
 
-def joint_reach(points, below, step, band, offsets, loop_level, tol, wp, frac, workers=1):
+@njit(cache=True, nogil=True, inline="always")
+def _xy(along, code, k, rl, cl):
+    """Crossing k's point, its below sample at row rl, column cl (isolines.points_of)."""
+    if code <= 1:
+        return along[k], (rl - 1) * 0.5
+    return (cl - 1) * 0.5, along[k]
+
+
+def joint_reach(along, below, step, band, offsets, loop_level, tol, wp, frac, workers=1):
     """(N,) float64: frac * tol[k] for the crossings that may move, 0 for the others."""
-    moves = joint_moves(points, below, step, band, offsets, loop_level, tol, wp, frac, workers=workers)
+    moves = joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, workers=workers)
     return np.where(moves, frac * tol, 0.0)
 
 
@@ -60,22 +70,23 @@ BAND_ROWS = 256
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _candidate(points, below, step, band, lev, k, wp, hp, frac, tol):
+def _candidate(along, below, step, band, lev, k, wp, hp, frac, tol):
     """Crossing k's nearer sample and its row if it is a candidate to move there (within
     frac of its tolerance, in the band next to its level, inside the image), else (-1, -1)."""
-    s, r, c, d = _nearer(points, below, step, k, wp)
+    s, r, c, d = _nearer(along, below, step, k, wp)
     if (d <= frac * tol[k] and 1 < r < hp - 2 and 1 < c < wp - 2
             and band[s] == (lev if s == below[k] else lev + 1)):
         return s, r
     return -1, -1
 
 
-def joint_moves(points, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1):
+def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1):
     """(N,) bool: the crossings that may move (joint_reach's, a byte a crossing: the encoder
     holds this and makes the reaches batch by batch).
 
-    Loop i is points[offsets[i]:offsets[i + 1]], of level loop_level[i]; crossing k lies on
-    the grid edge from below[k] to its 4-neighbour step[k] (isolines.py). A sample's decision
+    Loop i is crossings offsets[i] .. offsets[i + 1] - 1, of level loop_level[i]; crossing k
+    lies at along[k] on the grid edge from below[k] to its 4-neighbour step[k] (isolines.py:
+    Isolines.along, step, below). A sample's decision
     reads its own candidates alone, in point order, so the samples are taken ``band_rows``
     rows at a time: the candidates are listed band by band in point order (4 bytes a
     candidate), and each band chains its own per sample (4 bytes a sample of the band and a
@@ -83,14 +94,14 @@ def joint_moves(points, below, step, band, offsets, loop_level, tol, wp, frac, b
     visited. ``workers`` threads list the candidates of consecutive runs of loops (each
     run's after the runs before it in each band: the same lists) and decide runs of bands
     (a crossing is a candidate at one sample alone): the same result for any count."""
-    n = points.shape[0]
+    n = along.shape[0]
     hp = band.shape[0] // wp
     n_bands = (hp + band_rows - 1) // band_rows
     n_loops = offsets.shape[0] - 1
     moves = np.zeros(n, np.bool_)
     if n == 0:
         return moves
-    args = (points, below, step, band, offsets, loop_level, tol, wp, float(frac), int(band_rows))
+    args = (along, below, step, band, offsets, loop_level, tol, wp, float(frac), int(band_rows))
     workers = max(1, min(int(workers), n_loops))
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offsets, np.linspace(0, n, workers + 1)[1:-1]),
                                      [n_loops]]))
@@ -104,7 +115,7 @@ def joint_moves(points, below, step, band, offsets, loop_level, tol, wp, frac, b
     _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], fill[i], cand, True) for i in range(len(runs))])
     bcuts = np.unique(np.concatenate([[0], np.searchsorted(start, np.linspace(0, start[-1], workers + 1)[1:-1]),
                                       [n_bands]]))
-    _threaded([lambda a=a, b=b: _decide(points, below, step, offsets, loop_level, wp, hp, int(band_rows),
+    _threaded([lambda a=a, b=b: _decide(along, below, step, offsets, loop_level, wp, hp, int(band_rows),
                                          cand, start, a, b, moves) for a, b in zip(bcuts[:-1], bcuts[1:])])
     return moves
 
@@ -123,14 +134,14 @@ def _threaded(jobs):
 
 
 @njit(cache=True, nogil=True)
-def _list(points, below, step, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill):
+def _list(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill):
     """The candidates of loops [l0, l1) band by band: counted (at[b] += 1 for each of band
     b's) or, with ``fill``, listed into cand in point order, band b's from at[b] on."""
     hp = band.shape[0] // wp
     for lp in range(l0, l1):
         lev = loop_level[lp]
         for k in range(offsets[lp], offsets[lp + 1]):
-            s, r = _candidate(points, below, step, band, lev, k, wp, hp, frac, tol)
+            s, r = _candidate(along, below, step, band, lev, k, wp, hp, frac, tol)
             if s >= 0:
                 b = r // band_rows
                 if fill:
@@ -139,7 +150,7 @@ def _list(points, below, step, band, offsets, loop_level, tol, wp, frac, band_ro
 
 
 @njit(cache=True, nogil=True)
-def _decide(points, below, step, offsets, loop_level, wp, hp, band_rows, cand, start, b0, b1, moves):
+def _decide(along, below, step, offsets, loop_level, wp, hp, band_rows, cand, start, b0, b1, moves):
     """The moves of the candidates of bands [b0, b1) (cand[start[b]:start[b + 1]]: band b's,
     in point order)."""
     widest = 0
@@ -156,7 +167,7 @@ def _decide(points, below, step, offsets, loop_level, wp, hp, band_rows, cand, s
         head[: s1 - s0] = -1
         a0 = start[b]
         for a in range(start[b + 1] - 1, a0 - 1, -1):  # pushed last first: chains in point order
-            s = _nearer(points, below, step, cand[a], wp)[0] - s0
+            s = _nearer(along, below, step, cand[a], wp)[0] - s0
             nxt[a - a0] = head[s]
             head[s] = a - a0
         longest = 0
@@ -183,7 +194,10 @@ def _decide(points, below, step, offsets, loop_level, wp, hp, band_rows, cand, s
                 k = cand[a0 + q]
                 ck[m] = k
                 cl[m] = np.searchsorted(offsets, k, "right") - 1
-                cd[m] = abs(points[k, 0] - sx) + abs(points[k, 1] - sy)  # _nearer's, to the bit
+                lo = below[k]
+                rl = lo // wp
+                x, y = _xy(along, step[k], k, rl, lo - rl * wp)
+                cd[m] = abs(x - sx) + abs(y - sy)  # _nearer's, to the bit
                 m += 1
                 q = nxt[q]
             # k moves if at most PER_LOOP - 1 of the sample's candidates of its loop come before
