@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import skimage
 
-from isophote.encoder._kernels.enclose import innermost_enclosing
+from isophote.encoder import hierarchy
+from isophote.encoder._kernels.enclose import bucket_rows, innermost_enclosing
 from isophote.encoder.hierarchy import build_hierarchy, loop_areas, segment_table, successors
 from isophote.encoder.isolines import find_isolines
 from isophote.encoder.levels import preset_levels
@@ -60,3 +61,20 @@ def test_cap_contours_by_rows_equal_rays(name):
     )
     assert len(ref) > 5 and (ref >= 0).any()
     assert np.array_equal(h.cap_contour, ref)
+
+
+@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
+def test_segment_rows_bucketed_without_a_row_array(name, monkeypatch):
+    """segment_table's buckets (the rows found twice, a chunk at a time, for a counting
+    sort) equal bucket_rows of the plain rows, each segment's upper end's half-pixel row
+    clamped, at any chunk size."""
+    iso, _, (x, y, loop_start, seg_loop, rs, ro, n_rows) = traced(name)
+    ends = successors(np.arange(len(y)), iso.offsets, seg_loop)
+    row = np.clip(np.floor(2.0 * np.minimum(y, y[ends])), 0, n_rows - 1).astype(np.int32)
+    want_start, want_order = bucket_rows(row, n_rows)
+    assert np.array_equal(rs, want_start) and np.array_equal(ro, want_order)
+    assert np.array_equal(ro, np.argsort(row, kind="stable")) and len(np.unique(row)) > 10
+    for chunk in (1, 7, 100):
+        monkeypatch.setattr(hierarchy, "ROW_CHUNK", chunk)
+        got = segment_table(iso)
+        assert np.array_equal(got[4], want_start) and np.array_equal(got[5], want_order), chunk

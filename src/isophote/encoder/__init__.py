@@ -48,6 +48,10 @@ HANDLE_SHIFT = 5
 ANCHOR_GRID = 0.5
 # Strips marched at a time (each also holds its share of the budget: budget.strip_rows).
 STRIP_WORKERS = 2
+# Fitted points lie within this many image sizes of the origin (control points stray a
+# ribbon's width beyond the contour at most): the bound under which float32 holds them as
+# multiples of the file's grid exactly (encode_channel).
+FIT_MARGIN = 4
 # Cap values are rounded to this fraction of the input's error (cap_value_step).
 CAP_STEP = 0.5
 
@@ -186,6 +190,7 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
     """The channel ``name`` of the one plane in ``held``, which is emptied (the plane goes
     once prepared, when no one else holds it)."""
     plane = held.pop()
+    size = max(plane.shape)
     levels = channel_levels(name, opts)
     cap_step = cap_value_step(eps)
     memory = parse_memory(opts.memory)
@@ -194,19 +199,25 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
     iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS))
     del plane, eps
     contour_level, base_band = iso.level.astype(np.int32), iso.base_band
+    q = float(QUANT)
     if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
             tree = side.submit(build_hierarchy, iso, levels)
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
             tree = tree.result()
+        points = np.round(points * q) / q
     else:  # one after the other: their temporaries do not add up (same result)
         held = [iso]  # each part goes after the stage that reads it last
         del iso
-        (points, offsets, border), bounds = fit_bounded(held, levels, opts.snap, fit_batch_points(memory))
+        # the chains on the file's grid, batch by batch, held as float32 multiples of it
+        # where they fit (8 bytes a point less beside the hierarchy; the same values)
+        compact = size * FIT_MARGIN * q < 2**24
+        (points, offsets, border), bounds = fit_bounded(held, levels, opts.snap, fit_batch_points(memory),
+                                                        q, np.float32 if compact else np.float64)
         tree = build_hierarchy_held(held, levels, bounds)
         held.clear()
-    q = float(QUANT)
-    points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
+        points = points.astype(np.float64) / q
+    points, border = start_at_first_joint(points, offsets, border)
     return Channel(
         name=name,
         levels=levels,
@@ -276,11 +287,13 @@ def point_rows(iso: Isolines):
     return lambda a, b: points_of(below[a:b], step[a:b], along[a:b], wp)
 
 
-def fit_bounded(held: list, levels: np.ndarray, snap: float, max_points: int | None = None):
+def fit_bounded(held: list, levels: np.ndarray, snap: float, max_points: int | None = None, grid=None,
+                grid_type=np.float64):
     """fit_first, with the regions' bounding levels found between the joint moves and the
     fit (hierarchy.region_bounds), so that the hierarchy labels the regions beside the
     polylines without their tolerances. Returns fit_first's (points, offsets, border) and
-    the bounds for hierarchy.build_hierarchy_held (same result)."""
+    the bounds for hierarchy.build_hierarchy_held (same result; with ``grid``, the points
+    as fit_loops gives them on that grid)."""
     iso = held.pop()
     tol = fit_tolerances(iso.tol, iso.tol)
     moves = _joint_moves(iso, tol)
@@ -288,7 +301,7 @@ def fit_bounded(held: list, levels: np.ndarray, snap: float, max_points: int | N
     held.append(replace(iso, tol=None))
     points, offsets, border = point_rows(iso), iso.offsets, iso.border
     del iso
-    return fit_loops(points, offsets, border, tol, moves, snap, max_points), bounds
+    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type), bounds
 
 
 CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)
@@ -303,7 +316,8 @@ def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
-def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None):
+def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None, grid=None,
+              grid_type=np.float64):
     """Fit the loops of an Isolines (its points, or a row source of them, point_rows';
     offsets and border flags) given the fitter's
     tolerances (fit_tolerances) and which joints may move (_joint_moves; their reaches,
@@ -313,14 +327,25 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
     Each loop's chain depends on its own polyline, tolerances and joint reaches alone (the
     reaches, which look at the crossings of other loops, are found first for all), so the
     loops are fitted in batches of at most ``max_points`` points (None: one batch) with the
-    same result: batches bound the fit's temporaries (encoder/budget.py)."""
+    same result: batches bound the fit's temporaries (encoder/budget.py). With ``grid``
+    (the file's QUANT) the points come as np.round(points * grid), each batch's made so,
+    of type grid_type (float32 holds them exactly while they stay under 2**24: FIT_MARGIN)."""
     n_loops = offs.shape[0] - 1
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
     if not callable(points):
         points = (lambda p: lambda a, b: p[a:b])(points)
+    def fitted(*args):
+        p, o, b = _fit_batch(*args)
+        if grid is None:
+            return p, o, b
+        v = np.round(p * grid)
+        if grid_type != np.float64 and v.size and np.abs(v).max() >= 2**24:
+            raise RuntimeError("fitted points beyond FIT_MARGIN")  # a bug, never input
+        return v.astype(grid_type), o, b
+
     if max_points is None or offs[-1] <= max_points:
-        return _fit_batch(points(0, int(offs[-1])), offs, border, tol, _reaches(tol, moves), snap)
+        return fitted(points(0, int(offs[-1])), offs, border, tol, _reaches(tol, moves), snap)
     cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
                                                           "right") - 1, [n_loops]]))
     cuts = cuts[(cuts >= 0)]
@@ -329,7 +354,7 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
         if i1 <= i0:
             continue
         o0, o1 = offs[i0], offs[i1]
-        p, o, b = _fit_batch(points(o0, o1), offs[i0 : i1 + 1] - o0, border[o0:o1],
+        p, o, b = fitted(points(o0, o1), offs[i0 : i1 + 1] - o0, border[o0:o1],
                              tol[o0:o1], _reaches(tol[o0:o1], moves[o0:o1]), snap)
         pts.append(p)
         off.append(o[1:] + base)

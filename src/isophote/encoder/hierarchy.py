@@ -21,7 +21,7 @@ import numpy as np
 from ..geometry.areas import polyline_areas
 from ..model import CAP_RAMP
 from ._kernels.enclose import (
-    bucket_rows, innermost_enclosing, innermost_enclosing_rows, sweep_enclosing,
+    count_rows, innermost_enclosing, innermost_enclosing_rows, place_rows, sweep_enclosing,
 )
 from ._kernels.regions import (
     label_regions_rows, label_regions_saddles, loop_levels, region_deep, value_sums_rows, whole,
@@ -68,8 +68,10 @@ def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
     upper end, clamped to the n_rows rows (by default those of the Isolines' band grid);
     ``xy``: the points' x and y, where the caller has made them.
 
-    x and y are views of the points (or the caller's); loop and the row order are int32 (a channel's points
-    and loops are far below 2**31): 8 bytes a point in all."""
+    x and y are views of the points (or the caller's); loop and the row order are int32 (a
+    channel's points and loops are far below 2**31): 8 bytes a point in all. The rows are
+    bucketed as bucket_rows does (a stable counting sort), found twice a chunk of ROW_CHUNK
+    segments at a time rather than held (4 bytes a point less at the table's peak)."""
     if xy is None:
         p = iso.points
         xy = p[:, 0], p[:, 1]
@@ -79,13 +81,22 @@ def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
     seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
     if n_rows is None:
         n_rows = max(iso.band.shape[0] - 3, 1)
-    row = np.empty(n, np.int32)
-    for a in range(0, n, ROW_CHUNK):  # the row of the segment's upper end, clamped
+
+    def rows(a):  # the row of each segment's upper end, clamped
         ends = successors(np.arange(a, min(a + ROW_CHUNK, n)), iso.offsets, seg_loop)
         t = np.minimum(y[a : a + ROW_CHUNK], y[ends])
         t *= 2.0
-        row[a : a + ROW_CHUNK] = np.clip(np.floor(t), 0, n_rows - 1)
-    row_start, row_order = bucket_rows(row, n_rows)
+        return np.clip(np.floor(t), 0, n_rows - 1).astype(np.int32)
+
+    # bucket_rows' counting sort, the rows found twice a chunk at a time rather than held
+    row_start = np.zeros(n_rows + 1, np.int64)
+    for a in range(0, n, ROW_CHUNK):
+        count_rows(rows(a), row_start)
+    np.cumsum(row_start, out=row_start)
+    fill = row_start[:-1].copy()
+    row_order = np.empty(n, np.int32)
+    for a in range(0, n, ROW_CHUNK):
+        place_rows(rows(a), a, fill, row_order)
     return x, y, loop_start, seg_loop, row_start, row_order, n_rows
 
 

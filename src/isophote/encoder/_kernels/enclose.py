@@ -273,3 +273,20 @@ def bucket_rows(row, n_rows):
         row_order[fill[row[s]]] = s
         fill[row[s]] += 1
     return row_start, row_order
+
+
+@njit(cache=True, nogil=True)
+def count_rows(row, counts):
+    """counts[k + 1] += the number of k in ``row`` (bucket_rows' first pass, a run of rows
+    at a time)."""
+    for s in range(row.shape[0]):
+        counts[row[s] + 1] += 1
+
+
+@njit(cache=True, nogil=True)
+def place_rows(row, base, fill, row_order):
+    """bucket_rows' second pass over a run of rows, of segments base, base + 1, ...: each
+    goes to the next free place of its row's bucket (fill, advanced)."""
+    for s in range(row.shape[0]):
+        row_order[fill[row[s]]] = base + s
+        fill[row[s]] += 1
