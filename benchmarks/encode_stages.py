@@ -67,9 +67,10 @@ def stages(plane, name, opts, memory, report):
         print(f"| (isolines held: {held / npx:.0f} B/px, {iso.points.shape[0] / npx:.2f} points/px) | | | | | | |")
     held = [iso]  # as encode_channel: each part goes after the stage that reads it last
     del iso
-    _, bounds = stage("fit (reaches, the regions' bounds, then batches)",
-                      lambda: E.fit_bounded(held, lev, opts.snap, budget.fit_batch_points(memory)))
-    stage("hierarchy", lambda: hierarchy.build_hierarchy_held(held, lev, bounds))
+    grid = float(E.QUANT)  # as encode_channel: the chains on the file's grid, as float32
+    stage("fit (reaches, then batches)",
+          lambda: E.fit_first(held, opts.snap, budget.fit_batch_points(memory), grid, np.float32))
+    stage("hierarchy", lambda: hierarchy.build_hierarchy_held(held, lev))
 
 
 def main(argv=None) -> int:

@@ -102,22 +102,11 @@ def test_held_hierarchy_and_fit_equal_the_plain_ones(preset):
             a, b = getattr(tree, f), getattr(got, f)
             assert a.dtype == b.dtype and np.array_equal(a, b), f
         assert got.n_regions == tree.n_regions
-        # the encoder's: the regions' bounds found before the fit, the grid samples gone then
-        held = [fresh()]
-        fitted, bounds = E.fit_bounded(held, levels, opts.snap, max_points)
-        assert held[0].tol is None and held[0].below is not None and held[0].band is not None
-        for a, b in zip(chains, fitted):
-            assert a.dtype == b.dtype and np.array_equal(a, b), max_points
-        # on the file's grid, batch by batch, as float32 multiples of it: the same values
-        on_grid = E.fit_bounded([fresh()], levels, opts.snap, max_points, 64.0, np.float32)[0]
+        # the encoder's: the chains on the file's grid, batch by batch, as float32 multiples
+        on_grid = E.fit_first([fresh()], opts.snap, max_points, 64.0, np.float32)
         assert on_grid[0].dtype == np.float32
         assert np.array_equal(on_grid[0].astype(np.float64), np.round(chains[0] * 64.0))
         assert np.array_equal(on_grid[1], chains[1]) and np.array_equal(on_grid[2], chains[2])
-        got = build_hierarchy_held(held, levels, bounds)
-        for f in ("parent", "cap_band", "cap_contour", "cap_xy", "cap_value"):
-            a, b = getattr(tree, f), getattr(got, f)
-            assert a.dtype == b.dtype and np.array_equal(a, b), f
-        assert got.n_regions == tree.n_regions == bounds[0]
 
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])

@@ -25,7 +25,7 @@ from ..model import Channel, VectorImage
 from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
-from .hierarchy import build_hierarchy, build_hierarchy_held, region_bounds
+from .hierarchy import build_hierarchy, build_hierarchy_held
 from .isolines import Isolines, points_of
 from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
 from .strips import strip_isolines
@@ -212,9 +212,9 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
         # the chains on the file's grid, batch by batch, held as float32 multiples of it
         # where they fit (8 bytes a point less beside the hierarchy; the same values)
         compact = size * FIT_MARGIN * q < 2**24
-        (points, offsets, border), bounds = fit_bounded(held, levels, opts.snap, fit_batch_points(memory),
-                                                        q, np.float32 if compact else np.float64)
-        tree = build_hierarchy_held(held, levels, bounds)
+        points, offsets, border = fit_first(held, opts.snap, fit_batch_points(memory), q,
+                                            np.float32 if compact else np.float64)
+        tree = build_hierarchy_held(held, levels)
         held.clear()
         points = points.astype(np.float64) / q
     points, border = start_at_first_joint(points, offsets, border)
@@ -266,18 +266,19 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     return fit_loops(point_rows(iso), iso.offsets, iso.border, tol, _joint_moves(iso, tol), snap, max_points)
 
 
-def fit_first(held: list, snap: float, max_points: int | None = None):
+def fit_first(held: list, snap: float, max_points: int | None = None, grid=None, grid_type=np.float64):
     """fit_isolines of the one Isolines in ``held`` (no one else may hold it), which is put
     back without its tolerances (made the fitter's in place; the hierarchy, which comes
     next, does not read them): the hierarchy's temporaries then sit beside 8 bytes a point
-    less than the fit's did (same result)."""
+    less than the fit's did (same result; with ``grid``, the points as fit_loops gives
+    them on that grid)."""
     iso = held.pop()
     tol = fit_tolerances(iso.tol, iso.tol)
     moves = _joint_moves(iso, tol)
     held.append(replace(iso, tol=None))
     points, offsets, border = point_rows(iso), iso.offsets, iso.border
     del iso
-    return fit_loops(points, offsets, border, tol, moves, snap, max_points)
+    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type)
 
 
 def point_rows(iso: Isolines):
@@ -285,23 +286,6 @@ def point_rows(iso: Isolines):
     compact form (isolines.points_of) for those rows alone."""
     along, below, step, wp = iso.along, iso.below, iso.step, iso.band.shape[1]
     return lambda a, b: points_of(below[a:b], step[a:b], along[a:b], wp)
-
-
-def fit_bounded(held: list, levels: np.ndarray, snap: float, max_points: int | None = None, grid=None,
-                grid_type=np.float64):
-    """fit_first, with the regions' bounding levels found between the joint moves and the
-    fit (hierarchy.region_bounds), so that the hierarchy labels the regions beside the
-    polylines without their tolerances. Returns fit_first's (points, offsets, border) and
-    the bounds for hierarchy.build_hierarchy_held (same result; with ``grid``, the points
-    as fit_loops gives them on that grid)."""
-    iso = held.pop()
-    tol = fit_tolerances(iso.tol, iso.tol)
-    moves = _joint_moves(iso, tol)
-    bounds = region_bounds(iso, levels)
-    held.append(replace(iso, tol=None))
-    points, offsets, border = point_rows(iso), iso.offsets, iso.border
-    del iso
-    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type), bounds
 
 
 CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)

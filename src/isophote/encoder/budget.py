@@ -15,10 +15,10 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
 What it does not bound yet: the padded bands of a channel (8 bytes a pixel; the values
 are computed again from the plane where the caps read them, encoder/strips.py GridRows),
-its polylines (about 33 bytes a point, 1-4.5 points a pixel on textured photographs), and
-beside them the joint reaches' and the hierarchy's temporaries (about 5 bytes a point and
-16 a pixel, then 12 a point: the encoder fits first and drops the tolerances, then builds
-the hierarchy and drops the values' plane after the caps, encoder.fit_first,
+its polylines (22 bytes a point in their compact form, encoder/isolines.py; 1-4.5 points a
+pixel on textured photographs), and beside them the joint moves' and the hierarchy's
+temporaries (4 bytes a candidate crossing; the regions' labels, 16 bytes a pixel; then 12
+a point: each part goes after the stage that reads it last, encoder.fit_bounded,
 encoder/hierarchy.py build_hierarchy_held); docs/streaming.md says what remains.
 """
 
@@ -30,7 +30,7 @@ from ..errors import OptionError
 from ..shared.heap import MMAP_THRESHOLD, return_freed_memory, trim_heap  # noqa: F401 (the encoder's names)
 
 DEFAULT_MEMORY = "2G"  # a laptop's share: the issue's target for a 16 MP photograph
-FIT_SHARE = 0.0625
+FIT_SHARE = 0.0625  # 1/8 until session 21: the fit batches were the channel's peak (-9 bytes a pixel, mosaic)
 # fit temporaries per point (encoder/__init__.py fit_isolines: the concatenated pieces,
 # their tolerances and reaches, index arrays and the fitter's scratch; measured 266 bytes a
 # pixel at 3.6 points a pixel on the 16 MP mosaic's crops)

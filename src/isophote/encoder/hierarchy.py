@@ -133,22 +133,16 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     return _enclosing(iso, (p[:, 0], p[:, 1]), *_caps(iso, levels, [labels], m, lo, hi))
 
 
-def build_hierarchy_held(held: list, levels: np.ndarray, bounds=None) -> Hierarchy:
+def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
     """build_hierarchy of the one Isolines in ``held`` (no one else may hold it), which is
     put back with its points, offsets, levels and border flags alone once the caps are
-    fitted. The crossings' grid samples (8 bytes a point) and the saddle joins go once the
-    regions' bounding levels are found (or given: ``bounds``, region_bounds' of the same
-    Isolines, found before its grid samples went), before the caps' distances and sums; the
-    values' row source (the plane it computes them from) and the bands once the caps are
-    fitted, before the parents' segment table."""
+    fitted. The saddle joins go once the regions' bounding levels are found, before the
+    caps' distances and sums; the values' row source (the plane it computes them from) and
+    the bands once the caps are fitted; then the points are made from their compact form
+    (x in its own memory) before the parents' segment table."""
     iso = held.pop()
     labels, m = _labels(iso, levels)
-    if bounds is None:
-        lo, hi = crossing_levels(iso, labels, m)
-    else:  # region_bounds' (the labels are the same sets, numbered alike)
-        m_b, lo, hi = bounds
-        if m_b != m:
-            raise RuntimeError("the regions' bounds are another grid's")  # a bug, never input
+    lo, hi = crossing_levels(iso, labels, m)
     iso = replace(iso, saddles=None)
     lab = [labels]
     del labels
@@ -162,15 +156,6 @@ def build_hierarchy_held(held: list, levels: np.ndarray, bounds=None) -> Hierarc
     held.append(replace(iso, along=None, below=None, step=None))
     del iso
     return _enclosing(held[0], xy, *caps, n_rows=n_rows)
-
-
-def region_bounds(iso: Isolines, levels: np.ndarray):
-    """(m, lo, hi): the number of regions of the band grid and each one's lowest and highest
-    bounding level (crossing_levels'), for build_hierarchy_held; the labels are not kept
-    (16 bytes a pixel: the caps label the regions again, the same sets numbered alike)."""
-    labels, m = _labels(iso, levels)
-    lo, hi = crossing_levels(iso, labels, m)
-    return m, lo, hi
 
 
 def _labels(iso: Isolines, levels: np.ndarray):
