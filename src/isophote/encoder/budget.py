@@ -18,7 +18,7 @@ are computed again from the plane where the caps read them, encoder/strips.py Gr
 its polylines (22 bytes a point in their compact form, encoder/isolines.py; 1-4.5 points a
 pixel on textured photographs), and beside them the joint moves' and the hierarchy's
 temporaries (4 bytes a candidate crossing; the regions' labels, 16 bytes a pixel; then 12
-a point: each part goes after the stage that reads it last, encoder.fit_bounded,
+a point: each part goes after the stage that reads it last, encoder.fit_first,
 encoder/hierarchy.py build_hierarchy_held); docs/streaming.md says what remains.
 """
 
