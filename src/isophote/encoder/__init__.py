@@ -302,8 +302,8 @@ def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None, grid=None,
               grid_type=np.float64):
-    """Fit the loops of an Isolines (its points, or a row source of them, point_rows';
-    offsets and border flags) given the fitter's
+    """Fit the loops of an Isolines (a row source of its points, point_rows'; its offsets
+    and border flags) given the fitter's
     tolerances (fit_tolerances) and which joints may move (_joint_moves; their reaches,
     _joint_reach's, are made batch by batch and capped by the joint rounding there).
     Returns (points, offsets, border) in the Channel layout.
@@ -317,8 +317,7 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
     n_loops = offs.shape[0] - 1
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
-    if not callable(points):
-        points = (lambda p: lambda a, b: p[a:b])(points)
+
     def fitted(*args):
         p, o, b = _fit_batch(*args)
         if grid is None:

@@ -114,7 +114,7 @@ ROW_CHUNK = 1 << 20  # segments segment_table rows at a time (bounds its tempora
 
 def crossing_levels(iso: Isolines, labels: np.ndarray, m: int):
     """The lowest and highest level of the isoline (not border) crossings that bound each
-    region (region_levels' rule, loop by loop: _kernels/regions.py loop_levels)."""
+    region (_kernels/regions.py loop_levels, loop by loop)."""
     return loop_levels(labels, iso.band, iso.step, iso.below, iso.border, iso.offsets, iso.level, m)
 
 

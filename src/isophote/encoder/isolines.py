@@ -69,7 +69,8 @@ class Isolines:
         return int(self.level.shape[0])
 
     def loop(self, i: int) -> np.ndarray:
-        return self.points[self.offsets[i] : self.offsets[i + 1]]
+        a, b = self.offsets[i], self.offsets[i + 1]
+        return points_of(self.below[a:b], self.step[a:b], self.along[a:b], self.band.shape[1])
 
 
 STEP_RIGHT, STEP_LEFT, STEP_DOWN, STEP_UP = 0, 1, 2, 3
@@ -112,11 +113,15 @@ def points_of(below: np.ndarray, step: np.ndarray, along: np.ndarray, wp: int) -
     out = np.empty((n, 2))
     for a in range(0, n, POINTS_CHUNK):
         b = min(a + POINTS_CHUNK, n)
-        r, c = np.divmod(below[a:b].astype(np.int64), wp)
-        horizontal = step[a:b] <= STEP_LEFT
-        out[a:b, 0] = np.where(horizontal, along[a:b], (c - 1) * 0.5)
-        out[a:b, 1] = np.where(horizontal, (r - 1) * 0.5, along[a:b])
+        out[a:b, 0], out[a:b, 1] = _xy_rows(below[a:b], step[a:b], along[a:b], wp)
     return out
+
+
+def _xy_rows(below, step, along, wp):
+    """The x and y of some points from their compact form (points_of's rule)."""
+    r, c = np.divmod(below.astype(np.int64), wp)
+    horizontal = step <= STEP_LEFT
+    return np.where(horizontal, along, (c - 1) * 0.5), np.where(horizontal, (r - 1) * 0.5, along)
 
 
 def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int):
@@ -125,10 +130,7 @@ def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int)
     y = np.empty_like(along)
     for a in range(0, along.shape[0], POINTS_CHUNK):
         b = min(a + POINTS_CHUNK, along.shape[0])
-        r, c = np.divmod(below[a:b].astype(np.int64), wp)
-        horizontal = step[a:b] <= STEP_LEFT
-        y[a:b] = np.where(horizontal, (r - 1) * 0.5, along[a:b])
-        along[a:b] = np.where(horizontal, along[a:b], (c - 1) * 0.5)
+        along[a:b], y[a:b] = _xy_rows(below[a:b], step[a:b], along[a:b], wp)
     return along, y
 
 

@@ -12,10 +12,10 @@ sample). Grid samples are flat indices of the padded grid (``wp`` samples a row;
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 from numba import njit
+
+from ... import threads
 
 # At most this many crossings of one loop move onto one sample: two are a corner the loop
 # cuts at the sample; four would shrink a loop round the sample onto it (area 0; a perspective
@@ -124,11 +124,11 @@ _NO_CAND = np.zeros(0, np.int32)
 
 
 def _threaded(jobs):
-    """Run the jobs (the kernels release the GIL), in threads when more than one."""
+    """Run the jobs (the kernels release the GIL), on the project's pool when more than one."""
     if len(jobs) == 1:
         jobs[0]()
         return
-    with ThreadPoolExecutor(max_workers=len(jobs)) as pool:
+    with threads.pool(len(jobs)) as pool:
         for f in [pool.submit(j) for j in jobs]:
             f.result()
 

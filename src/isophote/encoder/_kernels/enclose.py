@@ -263,15 +263,11 @@ def bucket_rows(row, n_rows):
     """Counting sort of row indices in [0, n_rows): (row_start (n_rows + 1,) int64, row_order int32), equal
     to np.argsort(row, kind="stable") and np.searchsorted(row[row_order], arange(n_rows + 1))."""
     row_start = np.zeros(n_rows + 1, np.int64)
-    for s in range(row.shape[0]):
-        row_start[row[s] + 1] += 1
+    count_rows(row, row_start)
     for k in range(n_rows):
         row_start[k + 1] += row_start[k]
-    fill = row_start[:-1].copy()
     row_order = np.empty(row.shape[0], np.int32)  # segment indices: a channel's are far below 2**31
-    for s in range(row.shape[0]):
-        row_order[fill[row[s]]] = s
-        fill[row[s]] += 1
+    place_rows(row, 0, row_start[:-1].copy(), row_order)
     return row_start, row_order
 
 

@@ -398,22 +398,6 @@ def _cap_distances(labels, want, ramp):
     return ring, dmax, rad, far, True
 
 
-@njit(cache=True, nogil=True)
-def region_levels(labels, band, above, below, lev_seg, m):
-    """Lowest and highest level of the crossings that bound each region: a crossing of
-    level l (segment start points; above/below are its samples, flat indices) touches the
-    region of its above sample if that sample is in band l + 1, and the region of its below
-    sample if that one is in band l. Returns (lo, hi) (m,) int64; regions no crossing touches
-    keep lo = int64 max, hi = -1."""
-    lab = labels.ravel()
-    bf = band.ravel()
-    lo = np.full(m, np.iinfo(np.int64).max, np.int64)
-    hi = np.full(m, -1, np.int64)
-    for s in range(lev_seg.shape[0]):
-        _bound(lab, bf, above[s], below[s], lev_seg[s], lo, hi)
-    return lo, hi
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _bound(lab, bf, a, b, lv, lo, hi):
     """A crossing of level lv between samples b (below) and a (above) bounds the region of
@@ -430,11 +414,11 @@ def _bound(lab, bf, a, b, lv, lo, hi):
 
 @njit(cache=True, nogil=True)
 def loop_levels(labels, band, step, below, border, offsets, level, m):
-    """region_levels over the isoline (not border) segments of loops: loop i is segments
+    """The lowest and highest level of the isoline (not border) crossings that bound each
+    region (regions_ref.region_levels' rule, its twin), over loops: loop i is segments
     offsets[i] .. offsets[i + 1] - 1, of level level[i]; a segment's above sample is the
-    4-neighbour of its below one that its step names (isolines.py: +1, -1, +Wp, -Wp). The
-    same lowest and highest levels (int32: levels are few), without a per-segment level,
-    above sample or selection."""
+    4-neighbour of its below one that its step names (isolines.py: +1, -1, +Wp, -Wp).
+    int32 (levels are few); no per-segment level, above sample or selection is made."""
     lab = labels.ravel()
     bf = band.ravel()
     wp = band.shape[1]
