@@ -115,11 +115,13 @@ def test_bytes_do_not_depend_on_the_budget(monkeypatch, preset):
     channel at a time, the hierarchy after the fit) gives the bytes of a large one."""
     img = texture(150, 200)
     big = dumps(isophote.encode(img, preset=preset, memory="8G"))
-    calls = []
-    real = strips.march_strip
+    calls, spilled = [], []
+    real, real_file = strips.march_strip, strips.PlaneFile
     monkeypatch.setattr(strips, "march_strip", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(strips, "PlaneFile", lambda plane: spilled.append(plane.shape) or real_file(plane))
     small = dumps(isophote.encode(img, preset=preset, memory=1))
     assert len(calls) > 3 * 3  # several strips a channel
+    assert spilled == [(150, 200)] * 3  # each channel's plane waited in a file for its caps
     assert small == big
     assert dumps(isophote.encode(img, preset=preset, memory="300K")) == big
 

@@ -770,6 +770,22 @@ def test_joint_reach_matches_its_twin(which):
     # the kernel takes the samples a band of rows at a time: any band height, the same moves
     for rows, workers in ((1, 1), (2, 3), (3, 2), (7, 1), (7, 5), (1000, 2)):
         assert np.array_equal(joint_moves(*args, rows, workers=workers), ref > 0), (rows, workers)
+    # and bands listed and decided a few candidates at a time (one band a run at least)
+    for rows, workers, most in ((1, 1, 1), (2, 2, 5), (3, 1, 40), (7, 2, 0)):
+        got = joint_moves(*args, rows, workers=workers, max_candidates=most)
+        assert np.array_equal(got, ref > 0), (rows, workers, most)
+
+
+def test_band_groups_cover_the_bands_in_runs_under_the_cap():
+    from isophote.encoder._kernels.anchors import band_groups
+
+    per_band = np.array([3, 0, 9, 2, 2, 2, 0, 0, 12, 1])
+    assert band_groups(per_band) == [(0, 10)]
+    assert band_groups(per_band, 6) == [(0, 2), (2, 3), (3, 8), (8, 9), (9, 10)]
+    assert band_groups(per_band, 100) == [(0, 10)]
+    # a band over the cap is a run alone; empty bands join the run before them
+    assert band_groups(per_band, 0) == [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 6), (6, 8), (8, 9), (9, 10)]
+    assert band_groups(np.zeros(0, np.int64), 5) == [(0, 0)]
 
 
 def test_moved_joints_keep_every_loop_open_and_its_way_round(monkeypatch):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from isophote.encoder._kernels.enclose import (
-    bucket_rows, innermost_enclosing, innermost_enclosing_rows,
+    bucket_rows, innermost_enclosing, innermost_enclosing_rows, loop_blocks,
 )
 from isophote.encoder._kernels.enclose_ref import innermost_enclosing as innermost_enclosing_ref
 from isophote.encoder._kernels.marching import _cubic_t, march, march_loops
@@ -283,7 +283,9 @@ def test_innermost_enclosing_matches_its_twin(seed):
     px = np.concatenate([rng.uniform(0, w, 200), [0.5 * (p[0, 0] + p[1, 0]) for p in loops]])
     py = np.concatenate([rng.uniform(0, h, 200), [0.5 * (p[0, 1] + p[1, 1]) for p in loops]])
     exclude = np.concatenate([np.full(200, -1), np.arange(len(loops))]).astype(np.int64)
-    fast = innermost_enclosing(px, py, exclude, x0, y0, loop_start, seg_loop, row_start, row_order,
+    offsets = np.append(loop_start, len(x0))
+    assert np.array_equal(np.repeat(np.arange(len(loops)), np.diff(offsets)), seg_loop)
+    fast = innermost_enclosing(px, py, exclude, x0, y0, offsets, loop_blocks(offsets), row_start, row_order,
                                area, level, n_rows)
     ref = innermost_enclosing_ref(px, py, exclude, loops, area, level)
     assert np.array_equal(fast, ref)
@@ -321,7 +323,8 @@ def test_innermost_enclosing_rows_equals_rays(seed):
     px = np.concatenate([rng.uniform(-1, w + 1, n), np.round(rng.uniform(0, w, n) * 2) / 2])
     py = np.concatenate([rng.uniform(-1, h + 1, n), np.round(rng.uniform(0, h, n) * 2) / 2])
     exclude = np.where(rng.random(2 * n) < 0.2, rng.integers(0, len(loops), 2 * n), -1).astype(np.int64)
-    args = (x, y, loop_start, seg_loop, row_start, row_order, area, level, n_rows)
+    offsets = np.append(loop_start, len(x))
+    args = (x, y, offsets, loop_blocks(offsets), row_start, row_order, area, level, n_rows)
     rays = innermost_enclosing(px, py, exclude, *args)
     rows = innermost_enclosing_rows(px, py, exclude, *args)
     assert np.array_equal(rows, rays)

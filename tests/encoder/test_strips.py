@@ -54,6 +54,21 @@ def test_strips_give_the_isolines_of_one_march(preset, name):
         hp = ref.values.shape[0]
         for w0, w1 in ((0, hp), (0, 1), (3, 9), (hp - 2, hp), (5, 5)):
             assert np.array_equal(got.values(w0, w1), ref.values[w0:w1]), (rows, w0, w1)
+    # and with the plane in a temporary file (the encoder's, between the march and the caps)
+    assert got.values.spill() and callable(got.values.v) and got.values.spill()
+    for w0, w1 in ((0, hp), (0, 1), (1, 4), (3, 9), (hp - 3, hp), (5, 5)):
+        assert np.array_equal(got.values(w0, w1), ref.values[w0:w1]), ("spilled", w0, w1)
+
+
+def test_a_plane_file_gives_its_rows_and_says_when_cut_short():
+    from isophote.encoder.strips import PlaneFile
+
+    plane = np.arange(35.0).reshape(5, 7) / 3.0
+    f = PlaneFile(plane)
+    assert np.array_equal(f(0, 5), plane) and np.array_equal(f(2, 4), plane[2:4]) and f(3, 3).shape == (0, 7)
+    f.file.truncate(3 * 7 * 8)
+    with pytest.raises(OSError, match="cut short"):
+        f(2, 5)
 
 
 def test_a_flat_plane_has_only_frame_loops():
@@ -102,3 +117,53 @@ def test_caps_read_values_row_by_row_as_from_the_whole_grid(step):
     L = np.linspace(0, 255, m)
     a, b = R.cap_sums(lab, vals, want, L, 4.0), R.cap_sums_rows(lab, got.values, want, L, 4.0, step)
     assert a[2] and b[2] and a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
+    # what the caps hold per cap (slots), not per region: the same values for those regions
+    deep, total, count = R.region_stats(lab, vals, m)
+    slot = R.slots_of(want)
+    d2, c2 = R.region_deep(lab, slot)
+    t2, n2, e2, edge = R.value_sums_rows(lab, got.values, slot, L[want], 4.0, True, step)
+    assert d2.shape[0] == want.sum() < m and edge
+    assert np.array_equal(d2, deep[want]) and np.array_equal(c2, count[want])
+    assert t2.tobytes() == total[want].tobytes()
+    assert n2.tobytes() == a[0][want].tobytes() and e2.tobytes() == a[1][want].tobytes()
+
+
+@pytest.mark.parametrize("h, w", [(2, 2), (13, 11), (61, 83)])
+def test_error_rows_are_the_rows_of_sample_error(h, w):
+    """The per-pixel errors asked for a few rows at a time (each strip asks for its own, so
+    that they are not held whole through the march) are sample_error's rows to the bit."""
+    from isophote.encoder.noise import error_rows, local_noise, noise_rows, sample_error
+
+    rng = np.random.default_rng(h * 7 + w)
+    # grain from 0.1 to 2 grey levels across: the errors vary, under the cap (2.4) and over eps0
+    plane = 100.0 + np.linspace(0, 40, w) + rng.normal(0, 1, (h, w)) * np.linspace(0.1, 2.0, w)
+    levels = np.arange(3.5, 252, 6.0)
+    for floor, local in ((0.0, 1.0), (0.6, 1.2)):
+        whole = sample_error(plane, 0.5, levels, local, floor)
+        rows, sig = error_rows(plane, 0.5, levels, local, floor), noise_rows(plane)
+        assert whole.shape == (h, w) and whole.min() >= 0.5
+        assert np.unique(whole).size > (10 if min(h, w) > 20 else 0)
+        for a in range(h):
+            for b in (a, a + 1, min(h, a + 5), h):
+                assert np.array_equal(rows(a, b), whole[a:b]), (a, b)
+                assert np.array_equal(sig(a, b), local_noise(plane)[a:b]), (a, b)
+
+
+@pytest.mark.parametrize("preset", ["balanced", "high"])
+def test_strips_with_error_rows_give_the_isolines_of_the_whole_errors(preset):
+    """The encoder's path (prepare_plane_rows: the errors a row source) gives the Isolines
+    of the whole plane of errors at every strip height."""
+    from isophote.encoder.noise import ErrorRows, prepare_plane_rows
+
+    opts = EncodeOptions(preset=preset).resolved()
+    yuv = rgb_to_yuv(texture(50, 70).astype(np.float64))
+    levels = channel_levels("Y", opts)
+    plane, eps = prepare_plane("Y", yuv[..., 0].copy(), 0.5, levels, opts)
+    plane2, rows = prepare_plane_rows("Y", yuv[..., 0].copy(), 0.5, levels, opts)
+    assert isinstance(rows, ErrorRows) and np.array_equal(plane, plane2)
+    ref = strip_isolines(plane, eps, levels, opts, 10_000, 1)
+    assert ref.n_loops > 50
+    for r in (1, 3, 17):
+        got = strip_isolines(plane2, rows, levels, opts, r, 2)
+        for f in FIELDS:
+            assert np.array_equal(getattr(ref, f), getattr(got, f)), (r, f)

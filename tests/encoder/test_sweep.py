@@ -6,7 +6,7 @@ import pytest
 import skimage
 
 from isophote.encoder import hierarchy
-from isophote.encoder._kernels.enclose import bucket_rows, innermost_enclosing
+from isophote.encoder._kernels.enclose import bucket_rows, innermost_enclosing, loop_blocks
 from isophote.encoder.hierarchy import build_hierarchy, loop_areas, segment_table, successors
 from isophote.encoder.isolines import find_isolines
 from isophote.encoder.levels import preset_levels
@@ -34,18 +34,19 @@ def traced(name):
 
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_sweep_parents_equal_ray_parents(name):
-    iso, h, (x0, y0, loop_start, seg_loop, rs, ro, n_rows) = traced(name)
+    iso, h, (x0, y0, offsets, blocks, rs, ro, n_rows) = traced(name)
     nxt = np.arange(1, len(x0) + 1)  # the plain successor: the next point, the first after the last
     nxt[iso.offsets[1:] - 1] = iso.offsets[:-1]
-    assert np.array_equal(successors(np.arange(len(x0)), iso.offsets, seg_loop), nxt)
+    assert np.array_equal(successors(np.arange(len(x0)), iso.offsets), nxt)
     x1, y1 = x0[nxt], y0[nxt]
     cand = np.flatnonzero(~iso.border & (y0 != y1))
+    seg_loop = np.repeat(np.arange(iso.n_loops), np.diff(iso.offsets))
     loops, first = np.unique(seg_loop[cand], return_index=True)
     q = cand[first]
     ref = np.full(iso.n_loops, -1, np.int64)
     ref[loops] = innermost_enclosing(
         0.5 * (x0[q] + x1[q]), 0.5 * (y0[q] + y1[q]), loops.astype(np.int64),
-        x0, y0, loop_start, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+        x0, y0, offsets, blocks, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
     )
     assert iso.n_loops > 20
     assert np.array_equal(h.parent, ref)
@@ -54,10 +55,10 @@ def test_sweep_parents_equal_ray_parents(name):
 @pytest.mark.parametrize("name", ["camera", "noise", "rings"])
 def test_cap_contours_by_rows_equal_rays(name):
     """The caps' enclosing contours (innermost_enclosing_rows) are the ray query's."""
-    iso, h, (x, y, loop_start, seg_loop, rs, ro, n_rows) = traced(name)
+    iso, h, (x, y, offsets, blocks, rs, ro, n_rows) = traced(name)
     ref = innermost_enclosing(
         h.cap_xy[:, 0].copy(), h.cap_xy[:, 1].copy(), np.full(len(h.cap_xy), -1, np.int64),
-        x, y, loop_start, seg_loop, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
+        x, y, offsets, blocks, rs, ro, loop_areas(iso), iso.level.astype(np.int64), n_rows,
     )
     assert len(ref) > 5 and (ref >= 0).any()
     assert np.array_equal(h.cap_contour, ref)
@@ -68,8 +69,8 @@ def test_segment_rows_bucketed_without_a_row_array(name, monkeypatch):
     """segment_table's buckets (the rows found twice, a chunk at a time, for a counting
     sort) equal bucket_rows of the plain rows, each segment's upper end's half-pixel row
     clamped, at any chunk size."""
-    iso, _, (x, y, loop_start, seg_loop, rs, ro, n_rows) = traced(name)
-    ends = successors(np.arange(len(y)), iso.offsets, seg_loop)
+    iso, _, (x, y, offsets, blocks, rs, ro, n_rows) = traced(name)
+    ends = successors(np.arange(len(y)), iso.offsets)
     row = np.clip(np.floor(2.0 * np.minimum(y, y[ends])), 0, n_rows - 1).astype(np.int32)
     want_start, want_order = bucket_rows(row, n_rows)
     assert np.array_equal(rs, want_start) and np.array_equal(ro, want_order)
@@ -78,3 +79,26 @@ def test_segment_rows_bucketed_without_a_row_array(name, monkeypatch):
         monkeypatch.setattr(hierarchy, "ROW_CHUNK", chunk)
         got = segment_table(iso)
         assert np.array_equal(got[4], want_start) and np.array_equal(got[5], want_order), chunk
+
+
+def test_loops_found_from_offsets_and_blocks_and_successors_of_ranges():
+    """A segment's loop from the loops' offsets and the block index (no loop id a point),
+    short loops, long ones and empty ones; successors of a range of points as of the
+    points one by one."""
+    from isophote.encoder._kernels.enclose import LOOP_BLOCK_SHIFT, _loop_of
+    from isophote.encoder.hierarchy import successors_of_range
+
+    rng = np.random.default_rng(5)
+    lengths = np.concatenate([rng.integers(1, 5, 300), [0, 0], rng.integers(60, 300, 20), [0], [1]])
+    rng.shuffle(lengths)
+    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    n = int(offsets[-1])
+    blocks = loop_blocks(offsets)
+    assert blocks.shape[0] == -(-n // (1 << LOOP_BLOCK_SHIFT))
+    loop = np.repeat(np.arange(lengths.shape[0]), lengths)
+    assert [_loop_of.py_func(s, offsets, blocks) for s in range(n)] == loop.tolist()
+    nxt = np.arange(1, n + 1)
+    nxt[offsets[1:][lengths > 0] - 1] = offsets[:-1][lengths > 0]
+    assert np.array_equal(successors(np.arange(n), offsets), nxt)
+    for a, b in ((0, n), (0, 1), (n - 1, n), (5, 5), (7, 400), (123, 1000)):
+        assert np.array_equal(successors_of_range(a, b, offsets), nxt[a:b]), (a, b)

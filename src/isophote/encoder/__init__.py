@@ -16,6 +16,7 @@ import numpy as np
 
 from ._kernels.anchors import joint_moves, joint_reach
 from ..shared.grid import QUANT
+from ..shared.heap import release_read
 from ._kernels.fit import QUANT as FIT_QUANT
 from .. import threads
 from ..colour import rgb_to_yuv
@@ -27,10 +28,13 @@ from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy, build_hierarchy_held
 from .isolines import Isolines, points_of
-from .budget import fit_batch_points, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, strip_rows
+from .budget import (
+    fit_batch_points, move_candidates, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, spill_plane,
+    strip_rows,
+)
 from .strips import strip_isolines
 from .levels import channel_levels
-from .noise import adapt_steps, prepare_plane
+from .noise import adapt_steps, prepare_plane_rows
 
 # Handles go onto grids of up to 2**HANDLE_SHIFT / QUANT px (in the chord's frame) where the
 # segment stays in its ribbon (_kernels/fit.py, step 4), and the file codes them divided by
@@ -194,9 +198,11 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
     levels = channel_levels(name, opts)
     cap_step = cap_value_step(eps)
     memory = parse_memory(opts.memory)
-    plane, eps = prepare_plane(name, plane, eps, levels, opts)  # per-pixel eps, pruning (§3.1, §6)
+    # per-pixel eps (a row source: each strip computes its rows), pruning (§3.1, §6)
+    plane, eps = prepare_plane_rows(name, plane, eps, levels, opts)
     # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
     iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS))
+    spill = spill_plane(plane.nbytes, memory)
     del plane, eps
     contour_level, base_band = iso.level.astype(np.int32), iso.base_band
     q = float(QUANT)
@@ -207,13 +213,15 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
             tree = tree.result()
         points = np.round(points * q) / q
     else:  # one after the other: their temporaries do not add up (same result)
+        if spill:
+            iso.values.spill()  # the plane waits on disk until the caps (budget.py)
         held = [iso]  # each part goes after the stage that reads it last
         del iso
         # the chains on the file's grid, batch by batch, held as float32 multiples of it
         # where they fit (8 bytes a point less beside the hierarchy; the same values)
         compact = size * FIT_MARGIN * q < 2**24
         points, offsets, border = fit_first(held, opts.snap, fit_batch_points(memory), q,
-                                            np.float32 if compact else np.float64)
+                                            np.float32 if compact else np.float64, move_candidates(memory))
         tree = build_hierarchy_held(held, levels)
         held.clear()
         points = points.astype(np.float64) / q
@@ -266,19 +274,21 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
     return fit_loops(point_rows(iso), iso.offsets, iso.border, tol, _joint_moves(iso, tol), snap, max_points)
 
 
-def fit_first(held: list, snap: float, max_points: int | None = None, grid=None, grid_type=np.float64):
+def fit_first(held: list, snap: float, max_points: int | None = None, grid=None, grid_type=np.float64,
+              max_candidates: int | None = None):
     """fit_isolines of the one Isolines in ``held`` (no one else may hold it), which is put
     back without its tolerances (made the fitter's in place; the hierarchy, which comes
     next, does not read them): the hierarchy's temporaries then sit beside 8 bytes a point
     less than the fit's did (same result; with ``grid``, the points as fit_loops gives
-    them on that grid)."""
+    them on that grid; ``max_candidates``: the joint moves' candidates listed at a time,
+    _kernels/anchors.py joint_moves)."""
     iso = held.pop()
     tol = fit_tolerances(iso.tol, iso.tol)
-    moves = _joint_moves(iso, tol)
+    moves = _joint_moves(iso, tol, max_candidates)
     held.append(replace(iso, tol=None))
     points, offsets, border = point_rows(iso), iso.offsets, iso.border
     del iso
-    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type)
+    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type, release=True)
 
 
 def point_rows(iso: Isolines):
@@ -301,7 +311,7 @@ def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 
 def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None, grid=None,
-              grid_type=np.float64):
+              grid_type=np.float64, release=False):
     """Fit the loops of an Isolines (a row source of its points, point_rows'; its offsets
     and border flags) given the fitter's
     tolerances (fit_tolerances) and which joints may move (_joint_moves; their reaches,
@@ -313,7 +323,10 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
     loops are fitted in batches of at most ``max_points`` points (None: one batch) with the
     same result: batches bound the fit's temporaries (encoder/budget.py). With ``grid``
     (the file's QUANT) the points come as np.round(points * grid), each batch's made so,
-    of type grid_type (float32 holds them exactly while they stay under 2**24: FIT_MARGIN)."""
+    of type grid_type (float32 holds them exactly while they stay under 2**24: FIT_MARGIN).
+    With ``release`` (for a caller that drops tol and moves afterwards), each batch's
+    tolerances and moves give their memory pages back once it is fitted (shared/heap.py
+    release_read): 9 bytes a point go through the fit rather than at its end."""
     n_loops = offs.shape[0] - 1
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
@@ -339,6 +352,9 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
         o0, o1 = offs[i0], offs[i1]
         p, o, b = fitted(points(o0, o1), offs[i0 : i1 + 1] - o0, border[o0:o1],
                              tol[o0:o1], _reaches(tol[o0:o1], moves[o0:o1]), snap)
+        if release:  # the batch's tolerances and moves are done with: their pages go
+            release_read(tol, o0, o1)
+            release_read(moves, o0, o1)
         pts.append(p)
         off.append(o[1:] + base)
         brd.append(b)
@@ -474,10 +490,10 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     return joint_reach(*_anchor_args(iso, tol), workers=threads.available())
 
 
-def _joint_moves(iso: Isolines, tol: np.ndarray) -> np.ndarray:
+def _joint_moves(iso: Isolines, tol: np.ndarray, max_candidates: int | None = None) -> np.ndarray:
     """Which crossings _joint_reach lets move (a byte a crossing; the same whatever the
-    threads)."""
-    return joint_moves(*_anchor_args(iso, tol), workers=threads.available())
+    threads and max_candidates)."""
+    return joint_moves(*_anchor_args(iso, tol), workers=threads.available(), max_candidates=max_candidates)
 
 
 def _anchor_args(iso: Isolines, tol: np.ndarray) -> tuple:

@@ -8,8 +8,12 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
     strips         the channel's grid is computed and marched in strips of rows, each
                    strip's working set (about BYTES_PER_STRIP_SAMPLE bytes a sample of its
                    window of the padded grid) kept under STRIP_SHARE of the budget;
+    joint moves    the candidates of runs of sample bands listed and decided at a time,
+                   at most MOVES_SHARE of the budget (4 bytes a candidate);
     fit batches    loops are fitted in batches of at most FIT_SHARE of the budget (about
                    BYTES_PER_FIT_POINT bytes a polyline point of temporaries);
+    plane          a channel's prepared plane over SPILL_SHARE of the budget is kept in a
+                   temporary file between the march and the caps (spill_plane);
     fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
@@ -30,7 +34,7 @@ from ..errors import OptionError
 from ..shared.heap import MMAP_THRESHOLD, return_freed_memory, trim_heap  # noqa: F401 (the encoder's names)
 
 DEFAULT_MEMORY = "2G"  # a laptop's share: the issue's target for a 16 MP photograph
-FIT_SHARE = 0.0625  # 1/8 until session 21: the fit batches were the channel's peak (-9 bytes a pixel, mosaic)
+FIT_SHARE = 1 / 64  # 1/8 until session 21, 1/16 until session 22: the batch sits on the whole tolerances at the fit's start
 # fit temporaries per point (encoder/__init__.py fit_isolines: the concatenated pieces,
 # their tolerances and reaches, index arrays and the fitter's scratch; measured 266 bytes a
 # pixel at 3.6 points a pixel on the 16 MP mosaic's crops)
@@ -48,6 +52,13 @@ OVERLAP_SHARE = 0.25
 # window's values, bands and errors, computed in place, and the x pass's rows, about 26
 # bytes; the cell table, links, walk and per-point results, about 140 bytes a segment, at
 # up to 1.3 segments a sample on textured photographs: kept conservative)
+# the joint moves' candidate lists (4 bytes a candidate; 0.6-0.7 a point on the mosaic, 160
+# MiB of its luma's listed at once before session 22), bands of them at a time
+MOVES_SHARE = 1 / 64
+# a prepared plane over this share of the budget (64 MiB of the default 2G: 8.4 MP) waits in
+# a temporary file from the march to the caps, which read it a few rows at a time (125 MiB
+# of the 16 MP mosaic's luma off the joint moves', the fit's and the regions' peaks)
+SPILL_SHARE = 1 / 32
 STRIP_SHARE = 0.125
 BYTES_PER_STRIP_SAMPLE = 256
 MIN_UNIT = 1 << 20  # no unit of work below a MiB (tiny budgets still terminate)
@@ -83,6 +94,17 @@ def strip_rows(memory: int, width: int) -> int:
 def fit_batch_points(memory: int) -> int:
     """The most polyline points one fit batch should hold."""
     return max(int(FIT_SHARE * memory), MIN_UNIT) // BYTES_PER_FIT_POINT
+
+
+def move_candidates(memory: int) -> int:
+    """Candidates the joint moves list at a time (4 bytes each): MOVES_SHARE of the budget."""
+    return max(int(MOVES_SHARE * memory), MIN_UNIT) // 4
+
+
+def spill_plane(plane_bytes: int, memory: int) -> bool:
+    """Whether a channel's prepared plane waits in a temporary file between the march and
+    the caps (encoder/strips.py GridRows.spill): when it is over SPILL_SHARE of the budget."""
+    return plane_bytes > SPILL_SHARE * memory
 
 
 def overlap_fit_and_hierarchy(points: int, memory: int) -> bool:

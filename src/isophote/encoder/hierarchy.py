@@ -21,10 +21,12 @@ import numpy as np
 from ..geometry.areas import polyline_areas
 from ..model import CAP_RAMP
 from ._kernels.enclose import (
-    count_rows, innermost_enclosing, innermost_enclosing_rows, place_rows, sweep_enclosing,
+    count_rows, innermost_enclosing, innermost_enclosing_rows, loop_blocks, place_rows, sweep_enclosing,
 )
 from ._kernels.regions import (
-    label_regions_rows, label_regions_saddles, loop_levels, region_deep, value_sums_rows, whole,
+    label_regions_rows, label_regions_saddles, loop_levels, region_bands, region_deep, slots_of_regions,
+    value_sums_rows,
+    whole,
 )
 from .isolines import Isolines, xy_in_place
 
@@ -51,40 +53,40 @@ def value_rows(values):
     return values if callable(values) else whole(values)
 
 
-def _cap_fit(num, den, has_edge, rows, labels, regs, L):
-    """Least-squares cap values for the profile of model.py from value_sums_rows' sums (d is
-    measured on the grid: the distance to the nearest sample of another region, not the
-    padding, plus half a grid step, in pixels: _kernels/regions.py cap_sums)."""
+def _cap_fit(num, den, has_edge, rows, labels, L):
+    """Least-squares cap values for the profile of model.py from value_sums_rows' sums, per
+    cap (d is measured on the grid: the distance to the nearest sample of another region,
+    not the padding, plus half a grid step, in pixels: _kernels/regions.py cap_sums)."""
     if not has_edge:  # one region: the mean of the whole grid (made whole here, the same bits)
-        return np.array([float(rows(0, labels.shape[0])[1:-1, 1:-1].mean())] * len(regs))
-    out = L[regs] + num[regs] / np.maximum(den[regs], 1e-12)
+        return np.array([float(rows(0, labels.shape[0])[1:-1, 1:-1].mean())] * L.shape[0])
+    out = L + num / np.maximum(den, 1e-12)
     return np.clip(out, 0.0, 255.0)
 
 
 def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
-    """Segments as (x, y, loop_start, loop) arrays and their bucketing by half-pixel grid
+    """Segments as (x, y, offsets, blocks) arrays and their bucketing by half-pixel grid
     row: segment s runs from point s, (x[s], y[s]), to the next point of its loop (its
-    loop's first, loop_start[loop[s]], after its last: successors); its row is that of its
+    loop's first after its last: successors; loop i is points offsets[i] .. offsets[i + 1]
+    - 1, blocks its index, _kernels/enclose.py loop_blocks); its row is that of its
     upper end, clamped to the n_rows rows (by default those of the Isolines' band grid);
     ``xy``: the points' x and y, where the caller has made them.
 
-    x and y are views of the points (or the caller's); loop and the row order are int32 (a
-    channel's points and loops are far below 2**31): 8 bytes a point in all. The rows are
-    bucketed as bucket_rows does (a stable counting sort), found twice a chunk of ROW_CHUNK
-    segments at a time rather than held (4 bytes a point less at the table's peak)."""
+    x and y are views of the points (or the caller's); the row order is int32 (a channel's
+    points are far below 2**31): 4 bytes a point in all. The rows are bucketed as
+    bucket_rows does (a stable counting sort), found twice a chunk of ROW_CHUNK segments at
+    a time rather than held (4 bytes a point less at the table's peak)."""
     if xy is None:
         p = iso.points
         xy = p[:, 0], p[:, 1]
     x, y = xy
     n = x.shape[0]
-    loop_start = np.ascontiguousarray(iso.offsets[:-1], np.int64)
-    seg_loop = np.repeat(np.arange(iso.n_loops, dtype=np.int32), np.diff(iso.offsets))
+    offsets = np.ascontiguousarray(iso.offsets, np.int64)
     if n_rows is None:
         n_rows = max(iso.band.shape[0] - 3, 1)
 
     def rows(a):  # the row of each segment's upper end, clamped
-        ends = successors(np.arange(a, min(a + ROW_CHUNK, n)), iso.offsets, seg_loop)
-        t = np.minimum(y[a : a + ROW_CHUNK], y[ends])
+        b = min(a + ROW_CHUNK, n)
+        t = np.minimum(y[a:b], y[successors_of_range(a, b, offsets)])
         t *= 2.0
         return np.clip(np.floor(t), 0, n_rows - 1).astype(np.int32)
 
@@ -97,15 +99,26 @@ def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
     row_order = np.empty(n, np.int32)
     for a in range(0, n, ROW_CHUNK):
         place_rows(rows(a), a, fill, row_order)
-    return x, y, loop_start, seg_loop, row_start, row_order, n_rows
+    return x, y, offsets, loop_blocks(offsets), row_start, row_order, n_rows
 
 
-def successors(s: np.ndarray, offsets: np.ndarray, seg_loop: np.ndarray) -> np.ndarray:
+def successors(s: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """The point each segment of ``s`` runs to: the next of its loop, its loop's first after
     its last (enclose._succ's rule)."""
+    lp = np.searchsorted(offsets, s, "right") - 1
     nx = s + 1
-    last = nx == offsets[seg_loop[s] + 1]
-    nx[last] = offsets[seg_loop[s[last]]]
+    last = nx == offsets[lp + 1]
+    nx[last] = offsets[lp[last]]
+    return nx
+
+
+def successors_of_range(a: int, b: int, offsets: np.ndarray) -> np.ndarray:
+    """successors(np.arange(a, b), offsets), from the loops that end in the range alone."""
+    nx = np.arange(a + 1, b + 1, dtype=np.int64)
+    l0, l1 = np.searchsorted(offsets, [a + 1, b], "left")  # the loops whose last point is in [a, b)
+    ends = offsets[l0 : l1 + 1]
+    ends = ends[(ends > a) & (ends <= b)]
+    nx[ends - 1 - a] = offsets[np.searchsorted(offsets, ends, "left") - 1]
     return nx
 
 
@@ -128,29 +141,31 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     the levels of the crossings next to its samples.
     """
     labels, m = _labels(iso, levels)
-    lo, hi = crossing_levels(iso, labels, m)
+    bounds = list(crossing_levels(iso, labels, m))
     p = iso.points
-    return _enclosing(iso, (p[:, 0], p[:, 1]), *_caps(iso, levels, [labels], m, lo, hi))
+    return _enclosing(iso, (p[:, 0], p[:, 1]), *_caps(iso, levels, [labels], m, bounds, [iso.band]))
 
 
 def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
     """build_hierarchy of the one Isolines in ``held`` (no one else may hold it), which is
     put back with its points, offsets, levels and border flags alone once the caps are
-    fitted. The saddle joins go once the regions' bounding levels are found, before the
-    caps' distances and sums; the values' row source (the plane it computes them from) and
-    the bands once the caps are fitted; then the points are made from their compact form
-    (x in its own memory) before the parents' segment table."""
+    fitted. The saddle joins go once the regions' bounding levels are found, the bands
+    once the candidate caps' bands are read, both before the caps' distances and sums; the
+    values' row source (the plane it computes them from) once the caps are fitted; then the
+    points are made from their compact form (x in its own memory) before the parents'
+    segment table."""
     iso = held.pop()
     labels, m = _labels(iso, levels)
-    lo, hi = crossing_levels(iso, labels, m)
+    bounds = list(crossing_levels(iso, labels, m))
     iso = replace(iso, saddles=None)
     lab = [labels]
     del labels
-    caps = _caps(iso, levels, lab, m, lo, hi)
-    del lo, hi
-    n_rows = max(iso.band.shape[0] - 3, 1)
-    wp = iso.band.shape[1]
-    iso = replace(iso, values=None, band=None)  # the plane and the bands go first
+    hp, wp = iso.band.shape
+    bands = [iso.band]
+    iso = replace(iso, band=None)  # the bands go once the caps' bands are read
+    caps = _caps(iso, levels, lab, m, bounds, bands, wp)
+    n_rows = max(hp - 3, 1)
+    iso = replace(iso, values=None)  # the plane goes
     # the points' x and y (x in along's memory), the compact form's samples going with them
     xy = xy_in_place(iso.along, iso.below, iso.step, wp)
     held.append(replace(iso, along=None, below=None, step=None))
@@ -165,41 +180,54 @@ def _labels(iso: Isolines, levels: np.ndarray):
     return label_regions_rows(value_rows(iso.values), iso.band, np.asarray(levels, np.float64))
 
 
-def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, lo: np.ndarray, hi: np.ndarray):
+def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, bounds: list, bands: list, wp: int | None = None):
     """The caps on the labelled band grid (the one labels array in ``lab``, emptied: it goes
-    once the caps are fitted; lo and hi: the regions' bounding levels, crossing_levels'):
+    once the caps are fitted; ``bounds``: [lo, hi], the regions' bounding levels,
+    crossing_levels', emptied once the candidates are known; ``bands``: [the band grid],
+    emptied once the candidates' bands are read, before the regions' distances; wp its
+    width, by default the Isolines' band grid's):
     (n_regions, cap_band, cap_xy, cap_value).
 
     A region is a cap when its bounding levels are one (border stretches are no isolines:
     the decoder takes no distance from them, so a region that one level closes against the
-    frame is a cap, whatever levels run along the frame)."""
+    frame is a cap, whatever levels run along the frame). What is found of the regions
+    (deepest samples, counts, sums) is held per cap, not per region (_kernels/regions.py
+    slots_of: the mosaic's luma has 5.2 M regions, 0.66 M caps)."""
     labels = lab.pop()
+    hi = bounds.pop()
+    lo = bounds.pop()
     c = iso.n_loops
-    rows = value_rows(iso.values)
     is_cap = (hi >= 0) & (lo == hi)
     if c == 0:
         is_cap = np.ones(m, bool)
-    deep, count = region_deep(labels, m)
-    is_cap &= count > 0  # the padding-only part of the root has no samples
-    regs = np.flatnonzero(is_cap)
-    wp = iso.band.shape[1]
-    cap_band = iso.band.ravel()[deep[regs]].astype(np.int32)
-    no_contour = hi[regs] < 0  # the mean
+    cand = np.flatnonzero(is_cap)
+    lo, hi = lo[cand], hi[cand]
+    del is_cap
+    slot = slots_of_regions(m, cand)
+    band = bands.pop()
+    wp = band.shape[1] if wp is None else wp
+    cap_band = region_bands(labels, band, slot)
+    del band
+    deep, count = region_deep(labels, slot)
+    keep = count > 0  # the padding-only part of the root has no samples
+    regs = cand[keep]
+    slot[cand] = -1
+    slot[regs] = np.arange(regs.shape[0], dtype=np.int32)
+    deep, count, lo, hi, cap_band = deep[keep], count[keep], lo[keep], hi[keep], cap_band[keep]
+    del cand, keep
+    rows = value_rows(iso.values)
+    no_contour = hi < 0  # the mean
     single = ~no_contour  # a least-squares profile (_cap_fit)
-    level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo[regs], 0) * single], 0.0)
-    # one pass over the values: the regions' sums and the caps' least-squares sums
-    want = np.zeros(m, bool)
-    want[regs] = True
-    L = np.zeros(m)
-    L[regs] = level_value
-    total, num, den, has_edge = value_sums_rows(labels, rows, want, L, float(CAP_RAMP))
+    level_value = np.where(single, np.asarray(levels, np.float64)[np.maximum(lo, 0) * single], 0.0)
+    # one pass over the values: the caps' sums and least-squares sums
+    total, num, den, has_edge = value_sums_rows(labels, rows, slot, level_value, float(CAP_RAMP))
     with np.errstate(invalid="ignore", divide="ignore"):
-        cap_value = total[regs] / count[regs]
+        cap_value = total / count
     if len(regs):
-        fitted = _cap_fit(num, den, has_edge, rows, labels, regs, L)
+        fitted = _cap_fit(num, den, has_edge, rows, labels, level_value)
         cap_value = np.where(single, fitted, cap_value)
-    cap_idx = deep[regs].astype(np.int64)
-    del labels, deep, total, count
+    cap_idx = deep.astype(np.int64)
+    del labels, deep, total, count, slot
     # the cap is placed at the region's deepest sample: the annotation only names its region,
     # and a sample far from the region's edges keeps naming it when the fitted contours move
     # within their ribbons (an extremum on a plateau would be the plateau's first sample in
@@ -216,23 +244,24 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
     c = iso.n_loops
     lev_loop = iso.level.astype(np.int64)
     area = polyline_areas(xy, iso.offsets)
-    x, y, loop_start, seg_loop, row_start, row_order, n_rows = segment_table(iso, n_rows, xy)
+    x, y, offsets, blocks, row_start, row_order, n_rows = segment_table(iso, n_rows, xy)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
-    parent, seen = sweep_enclosing(x, y, loop_start, seg_loop, row_start, row_order, lev_loop, c, n_rows)
-    cand = np.flatnonzero(~seen[seg_loop])
-    cand = cand[~iso.border[cand] & (y[cand] != y[successors(cand, iso.offsets, seg_loop)])]
-    has_q, first = np.unique(seg_loop[cand], return_index=True)
+    parent, seen = sweep_enclosing(x, y, offsets, blocks, row_start, row_order, lev_loop, c, n_rows)
+    unseen = np.flatnonzero(~seen)
+    cand = _ranges(offsets[unseen], np.diff(offsets)[unseen])  # the points of the unseen loops
+    cand = cand[~iso.border[cand] & (y[cand] != y[successors(cand, offsets)])]
+    has_q, first = np.unique(np.searchsorted(offsets, cand, "right") - 1, return_index=True)
     qs = cand[first]
     if qs.size:
-        qe = successors(qs, iso.offsets, seg_loop)
+        qe = successors(qs, offsets)
         parent[has_q] = innermost_enclosing(
             0.5 * (x[qs] + x[qe]), 0.5 * (y[qs] + y[qe]), has_q.astype(np.int64),
-            x, y, loop_start, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+            x, y, offsets, blocks, row_start, row_order, area, lev_loop, n_rows,
         )
     cap_contour = innermost_enclosing_rows(
         cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_xy), -1, np.int64),
-        x, y, loop_start, seg_loop, row_start, row_order, area, lev_loop, n_rows,
+        x, y, offsets, blocks, row_start, row_order, area, lev_loop, n_rows,
     ) if c else np.full(len(cap_xy), -1, np.int64)
     return Hierarchy(
         parent=parent.astype(np.int32),
@@ -242,3 +271,10 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
         cap_xy=cap_xy,
         cap_value=np.asarray(cap_value, np.float64),
     )
+
+
+def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Concatenated index ranges [starts[k], starts[k] + lengths[k])."""
+    total = int(lengths.sum())
+    before = np.cumsum(lengths) - lengths
+    return np.repeat(starts - before, lengths) + np.arange(total, dtype=np.int64)

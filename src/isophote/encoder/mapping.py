@@ -207,33 +207,34 @@ def _midpoint(base, base_e, d, de, dl, dle, dr, dre, p, scale, cubic):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _x_pass(v, e, i, p, scale, cubic, g, ge, errors):
+def _x_pass(v, e, p, scale, cubic, g, ge, errors):
     """Row 2i + 1 of the grid (pixel row i and the midpoints along x) into g, ge (columns
-    1 .. 2w - 1; the ring columns are left); errors False: the values alone (ge unused)."""
+    1 .. 2w - 1; the ring columns are left), v and e: pixel row i's values and errors, (1,
+    w) each; errors False: the values alone (ge and e unused)."""
     w = v.shape[1]
     for j in range(w):
-        g[2 * j + 1] = v[i, j]
+        g[2 * j + 1] = v[0, j]
         if errors:
-            ge[2 * j + 1] = e[i, j]
+            ge[2 * j + 1] = e[0, j]
     for j in range(w - 1):
-        d = v[i, j + 1] - v[i, j]
+        d = v[0, j + 1] - v[0, j]
         dl = 0.0
         dr = 0.0
         if j > 0:
-            dl = v[i, j] - v[i, j - 1]
+            dl = v[0, j] - v[0, j - 1]
         if j + 2 < w:
-            dr = v[i, j + 2] - v[i, j + 1]
+            dr = v[0, j + 2] - v[0, j + 1]
         if not errors:
-            g[2 * j + 2] = _mid_value(v[i, j], d, dl, dr, p, scale, cubic)
+            g[2 * j + 2] = _mid_value(v[0, j], d, dl, dr, p, scale, cubic)
             continue
-        de = abs(e[i, j]) + abs(e[i, j + 1])
+        de = abs(e[0, j]) + abs(e[0, j + 1])
         dle = 0.0
         dre = 0.0
         if j > 0:
-            dle = abs(e[i, j - 1]) + abs(e[i, j])
+            dle = abs(e[0, j - 1]) + abs(e[0, j])
         if j + 2 < w:
-            dre = abs(e[i, j + 1]) + abs(e[i, j + 2])
-        g[2 * j + 2], ge[2 * j + 2] = _midpoint(v[i, j], e[i, j], d, de, dl, dle, dr, dre, p, scale, cubic)
+            dre = abs(e[0, j + 1]) + abs(e[0, j + 2])
+        g[2 * j + 2], ge[2 * j + 2] = _midpoint(v[0, j], e[0, j], d, de, dl, dle, dr, dre, p, scale, cubic)
 
 
 def map_rows(v, e, p, scale, cubic, g0, g1):
@@ -250,7 +251,7 @@ def map_rows(v, e, p, scale, cubic, g0, g1):
 
 
 @njit(cache=True, nogil=True)
-def _x_rows(h, g0, g1):
+def x_rows(h, g0, g1):
     lo_eff = min(max(g0, 1), 2 * h - 1)
     hi_eff = min(max(g1 - 1, 1), 2 * h - 1)
     i_lo = max(0, (lo_eff - 1) // 2 - 1)
@@ -262,24 +263,30 @@ def x_pass_rows(h: int, g0: int, g1: int) -> int:
     """Rows of x-pass scratch map_rows_into needs for grid rows [g0, g1) of an h-row plane."""
     if g1 <= g0:
         return 0
-    i_lo, i_hi = _x_rows(h, g0, g1)
+    i_lo, i_hi = x_rows(h, g0, g1)
     return i_hi - i_lo
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge, xs, xe, errors=True):
+def map_rows_into(v, e, p, scale, cubic, g0, g1, g, ge, xs, xe, errors=True, e0=0, v0=0, h=-1):
     """map_rows into g, ge (g1 - g0 rows of 2W + 1, views allowed), with xs, xe as the x
-    pass's scratch (x_pass_rows(H, g0, g1) rows of 2W + 1 each, or more); errors False:
-    the values alone, the same bits (ge and xe unused: the encoder's caps read the grid's
+    pass's scratch (x_pass_rows(H, g0, g1) rows of 2W + 1 each, or more); e: the errors'
+    pixel rows from e0 on (the whole plane's, or at least its rows x_rows(H, g0, g1): the
+    encoder's strips compute those alone, noise.error_rows); v likewise, its pixel rows
+    from v0 on of a plane of h rows (h -1: v is the whole plane); errors False:
+    the values alone, the same bits (ge, xe and e unused: the encoder's caps read the grid's
     values again, encoder/strips.py GridRows)."""
-    h, w = v.shape
+    if h < 0:
+        h = v.shape[0]
+    w = v.shape[1]
     w1 = 2 * w - 1
     n = g1 - g0
     if n <= 0:
         return
-    i_lo, i_hi = _x_rows(h, g0, g1)
+    i_lo, i_hi = x_rows(h, g0, g1)
     for i in range(i_lo, i_hi):
-        _x_pass(v, e, i, p, scale, cubic, xs[i - i_lo], xe[i - i_lo] if errors else xe[0], errors)
+        er = e[i - e0 : i - e0 + 1] if errors else e[:1]
+        _x_pass(v[i - v0 : i - v0 + 1], er, p, scale, cubic, xs[i - i_lo], xe[i - i_lo] if errors else xe[0], errors)
     for k in range(n):
         gr = min(max(g0 + k, 1), 2 * h - 1)  # the ring rows repeat their neighbours
         if gr % 2 == 1:

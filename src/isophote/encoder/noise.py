@@ -97,6 +97,29 @@ def local_noise(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -
         The median of |residual| is taken over window x window pixels centred every
         ``stride`` pixels, then interpolated bilinearly to the pixel centres.
     """
+    return noise_rows(plane, window, stride)(0, np.shape(plane)[0])
+
+
+class NoiseRows:
+    """local_noise's plane, rows at a time: rows(a, b) is local_noise(plane)[a:b], the same
+    bits (each sample is interpolated from the lattice on its own), from the lattice of
+    window medians alone (1/64 of the plane at STRIDE 8)."""
+
+    def __init__(self, coarse, yy, xx, constant=None):
+        self.coarse, self.yy, self.xx, self.constant = coarse, yy, xx, constant
+
+    def __call__(self, a: int, b: int) -> np.ndarray:
+        from scipy import ndimage
+
+        if self.constant is not None:
+            return np.full((len(self.yy[a:b]), self.xx.shape[0]), self.constant)
+        coords = np.meshgrid(self.yy[a:b], self.xx, indexing="ij")
+        return ndimage.map_coordinates(self.coarse, coords, order=1, mode="nearest")
+
+
+def noise_rows(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -> NoiseRows:
+    """local_noise as a row source (NoiseRows): the lattice of window medians is computed
+    here, the per-pixel interpolation when rows are asked for."""
     from scipy import ndimage
 
     r = residual(plane)
@@ -104,9 +127,7 @@ def local_noise(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -
     h, w = r.shape
     win = min(window, h, w)
     if win < 3:
-        return np.full((h, w), MAD_TO_SIGMA * float(np.median(r)))
-    # window centres at (stride/2 + k stride); the windows clip to the image, done by
-    # repeating the edge samples (the median of a clipped window, up to a few samples)
+        return NoiseRows(None, np.zeros(h), np.zeros(w), MAD_TO_SIGMA * float(np.median(r)))
     ny, nx = -(-h // stride), -(-w // stride)
     pad_lo = win // 2
     pad_y = max(0, (ny - 1) * stride + stride // 2 + win - win // 2 - h)
@@ -115,26 +136,39 @@ def local_noise(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) -
     cy = stride // 2 + np.arange(ny) * stride  # centre rows in image coordinates
     cx = stride // 2 + np.arange(nx) * stride
     del r
-    # each window's median selected in place (_kernels/median.py: NumPy's bits, without the
-    # twin's copies of every window, 64 bytes a pixel)
     coarse = MAD_TO_SIGMA * window_medians(rp, (cy - win // 2 + pad_lo).astype(np.int64),
                                            (cx - win // 2 + pad_lo).astype(np.int64), win)
     del rp
-    # bilinear from the window centres to every pixel (edge values held beyond them)
     yy = np.clip((np.arange(h) - stride // 2) / stride, 0, ny - 1)
     xx = np.clip((np.arange(w) - stride // 2) / stride, 0, nx - 1)
-    coords = np.meshgrid(yy, xx, indexing="ij")
-    return ndimage.map_coordinates(coarse, coords, order=1, mode="nearest")
+    return NoiseRows(coarse, yy, xx)
 
 
 def sample_error(plane, eps0, levels, local, floor=0.0) -> np.ndarray:
     """eps(x) of the module docstring: (H, W) float64 grey levels."""
+    return error_rows(plane, eps0, levels, local, floor)(0, np.shape(plane)[0])
+
+
+class ErrorRows:
+    """sample_error's plane, rows at a time: rows(a, b) is sample_error(...)[a:b], the same
+    bits, from local_noise's lattice (NoiseRows). The encoder's strips ask each for its own
+    rows, so that the per-pixel errors (8 bytes a pixel) are not held through the march."""
+
+    def __init__(self, sigma: NoiseRows, eps0, cap, local, floor):
+        self.sigma, self.eps0, self.cap, self.local, self.floor = sigma, eps0, cap, local, floor
+
+    def __call__(self, a: int, b: int) -> np.ndarray:
+        est = self.local * np.maximum(self.sigma(a, b), self.floor)
+        if self.cap is not None:
+            est = np.minimum(est, self.cap)
+        return np.maximum(est, self.eps0)
+
+
+def error_rows(plane, eps0, levels, local, floor=0.0) -> ErrorRows:
+    """sample_error as a row source (ErrorRows)."""
     levels = np.asarray(levels, np.float64)
-    sigma = np.maximum(local_noise(plane), float(floor))
-    est = local * sigma
-    if levels.size > 1:
-        est = np.minimum(est, CAP_FRACTION * float(np.min(np.diff(levels))))
-    return np.maximum(est, eps0)
+    cap = CAP_FRACTION * float(np.min(np.diff(levels))) if levels.size > 1 else None
+    return ErrorRows(noise_rows(plane), eps0, cap, local, float(floor))
 
 
 def smooth_grain(plane: np.ndarray, t: float, sigma: np.ndarray | None = None) -> np.ndarray:
@@ -193,7 +227,16 @@ def adapt_steps(opts, luma: np.ndarray):
 
 
 def prepare_plane(name, plane, eps, levels, opts):
-    """The plane and its per-sample error as the contour finder should see them.
+    """prepare_plane_rows with the per-sample error made whole: (plane, eps), eps a float
+    or an (H, W) float64 array."""
+    plane, eps = prepare_plane_rows(name, plane, eps, levels, opts)
+    return plane, (eps(0, plane.shape[0]) if callable(eps) else eps)
+
+
+def prepare_plane_rows(name, plane, eps, levels, opts):
+    """The plane and its per-sample error as the contour finder should see them: (plane,
+    eps), eps the float given or a row source of the per-pixel error (ErrorRows: rows(a, b)
+    of the (H, W) plane of errors, computed when asked).
 
     ``opts.local_noise`` > 0: eps becomes the per-pixel :func:`sample_error` (with the
     channel's ``opts.noise_floor``); ``opts.prune_area_y`` (Y, A) or ``prune_area_uv`` (U, V)
@@ -218,9 +261,11 @@ def prepare_plane(name, plane, eps, levels, opts):
     if grain > 0:
         plane = smooth_grain(plane, grain)
     if local > 0:
-        eps = sample_error(plane, eps, levels, local, channel_floor(opts.noise_floor, name))
+        eps = error_rows(plane, eps, levels, local, channel_floor(opts.noise_floor, name))
     if prune_area > 0 and opts.prune_contrast > 0:
-        plane = prune_extrema(plane, levels, prune_area, opts.prune_contrast * np.asarray(eps))
+        whole = eps(0, plane.shape[0]) if callable(eps) else np.asarray(eps)
+        plane = prune_extrema(plane, levels, prune_area, opts.prune_contrast * whole)
+        del whole
     return plane, eps
 
 

@@ -31,7 +31,7 @@ from ._kernels.regions import saddle_unions
 from ._kernels.strips import march_strip
 from .isolines import Isolines, along_of, step_codes
 from .looporder import merge_loops
-from .mapping import map_rows_into, x_pass_rows
+from .mapping import map_rows_into, x_pass_rows, x_rows
 from .budget import trim_heap
 
 FIELDS = ("along", "border", "below", "step", "tol")
@@ -51,23 +51,34 @@ def grid_window(v, e, levels, opts, w0, w1, hp, wp):
     return wv, wb, we
 
 
-def _window(v, e, opts, w0, w1, hp, wp, errors):
-    """Padded values (and, with ``errors``, sample errors; else None) of padded rows
-    [w0, w1), the padding ring and the rows outside the grid 0; and where the grid's rows
-    lie in them (a, rows)."""
+def _window(v, e, opts, w0, w1, hp, wp, errors, h=None):
+    """Padded values (and, with ``errors``, sample errors, from e, a row source of the
+    plane's errors: error_source's; else None) of padded rows [w0, w1), the padding ring
+    and the rows outside the grid 0; and where the grid's rows lie in them (a, rows). v is
+    the plane, or a row source of its h rows (PlaneFile)."""
     g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
     a = g0 + 1 - w0
     rows = max(g1 - g0, 0)
     wv = np.empty((w1 - w0, wp))
     we = np.empty((w1 - w0, wp)) if errors else None
-    xr = x_pass_rows(v.shape[0], g0, g1)
+    h = v.shape[0] if h is None else h
+    xr = x_pass_rows(h, g0, g1)
+    i0, i1 = x_rows(h, g0, g1) if rows else (0, 0)  # the pixel rows these grid rows read
+    v0 = 0
+    if callable(v):
+        v, v0 = np.ascontiguousarray(v(i0, i1), np.float64), i0
+    if errors:  # asked of the errors' row source
+        e = np.ascontiguousarray(e(i0, i1), np.float64)
+    else:
+        e = v  # not read
     args = (v, e, float(opts.carrato_p), float(opts.carrato_scale), float(opts.carrato_cubic), g0, g1,
             wv[a : a + rows, 1:-1])
     if errors:  # errors left at its default: numba compiles the flag in, the march's loops stay lean
-        map_rows_into(*args, we[a : a + rows, 1:-1], np.empty((xr, wp - 2)), np.empty((xr, wp - 2)))
+        map_rows_into(*args, we[a : a + rows, 1:-1], np.empty((xr, wp - 2)), np.empty((xr, wp - 2)), e0=i0,
+                      v0=v0, h=h)
     else:
         unused = np.empty((1, wp - 2))  # the errors' arrays, not written
-        map_rows_into(*args, unused, np.empty((xr, wp - 2)), unused, False)
+        map_rows_into(*args, unused, np.empty((xr, wp - 2)), unused, False, v0=v0, h=h)
     for z in (wv, we) if errors else (wv,):
         z[:a] = 0.0
         z[a + rows :] = 0.0
@@ -82,13 +93,68 @@ class GridRows:
     march's windows; the values alone, not their errors): the hierarchy's caps read the
     values once (_kernels/regions.py value_sums_rows; the joins of regions that the values
     decide are recorded by the march, saddle_unions), and holding them whole was 8 bytes a
-    sample, 32 a pixel, at the march's peak (issue 22). Holds the plane (8 bytes a pixel)."""
+    sample, 32 a pixel, at the march's peak (issue 22). Holds the plane (8 bytes a pixel),
+    or, once spilled, reads the rows it needs from a temporary file."""
 
     def __init__(self, v, opts, hp, wp):
         self.v, self.opts, self.hp, self.wp = v, opts, hp, wp  # the errors are not needed
+        self.h = v.shape[0]
 
     def __call__(self, w0: int, w1: int) -> np.ndarray:
-        return _window(self.v, self.v, self.opts, w0, w1, self.hp, self.wp, False)[0]
+        return _window(self.v, None, self.opts, w0, w1, self.hp, self.wp, False, self.h)[0]
+
+    def spill(self) -> bool:
+        """Move the plane to a temporary file (PlaneFile), read back a few rows at a time
+        when the caps ask: between the march and the caps (the joint moves, the fit, the
+        regions' labels) it is not read. False, and the plane kept, where no temporary
+        file can be written."""
+        if callable(self.v):
+            return True
+        try:
+            self.v = PlaneFile(self.v)
+        except OSError:
+            return False
+        return True
+
+
+class PlaneFile:
+    """A float64 plane in a temporary file (deleted when closed, or when this goes):
+    rows(a, b) reads rows [a, b) of it."""
+
+    def __init__(self, plane: np.ndarray):
+        import tempfile
+
+        self.shape = plane.shape
+        self.file = tempfile.TemporaryFile(prefix="isophote-plane-")
+        try:
+            np.ascontiguousarray(plane, np.float64).tofile(self.file)
+            self.file.flush()
+        except BaseException:
+            self.file.close()
+            raise
+
+    def __call__(self, a: int, b: int) -> np.ndarray:
+        w = self.shape[1]
+        n = max(b - a, 0)
+        self.file.seek(a * w * 8)
+        out = np.fromfile(self.file, np.float64, n * w)
+        if out.shape[0] != n * w:
+            raise OSError("the plane's temporary file was cut short")
+        return out.reshape(n, w)
+
+
+def error_source(eps, shape):
+    """A row source (rows(a, b): pixel rows [a, b)) of a plane's sample errors ``eps``: a
+    float, an (H, W) array, or already a row source (noise.ErrorRows, which computes each
+    strip's rows when asked: the per-pixel errors are not held whole through the march)."""
+    if callable(eps):
+        return eps
+    e = np.asarray(eps, np.float64)
+    if e.ndim == 0:
+        value = float(e)
+        return lambda a, b: np.full((max(b - a, 0), shape[1]), value)
+    e = np.ascontiguousarray(np.broadcast_to(e, shape))
+    return lambda a, b: e[a:b]
 
 
 class _Chain:
@@ -196,12 +262,13 @@ def _closed_part(closed: list) -> dict | None:
 
 
 def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Isolines:
-    """The isolines of the channel ``plane`` (its sample errors ``eps``, a float or a plane),
+    """The isolines of the channel ``plane`` (its sample errors ``eps``: a float, a plane or
+    a row source of one, error_source),
     marched in strips of ``rows`` cell rows of the padded grid, ``workers`` strips at a
     time: the Isolines of encoder.isolines.find_isolines on map_pixels' grid, to the bit."""
     levels = np.ascontiguousarray(levels, np.float64)
     v = np.ascontiguousarray(plane, np.float64)
-    e = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, np.float64), v.shape))
+    e = error_source(eps, v.shape)
     h, w = v.shape
     hp, wp = 2 * h + 3, 2 * w + 3
     rows = max(int(rows), 1)

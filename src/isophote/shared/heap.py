@@ -51,3 +51,30 @@ def trim_heap() -> None:
     elsewhere nothing): small blocks freed between the ones kept stay in the arenas otherwise."""
     if _glibc():
         _glibc().malloc_trim(0)
+
+
+_MADV_DONTNEED = 4  # Linux's sys/mman.h
+
+
+def release_read(a, start: int, stop: int) -> None:
+    """Give the system back the memory pages lying wholly inside a[start:stop] of a 1-D
+    C-contiguous array whose elements there will not be read again (Linux's madvise
+    MADV_DONTNEED; elsewhere nothing). For an input consumed in order by a long stage (the
+    fitter's tolerances, batch by batch): its pages go as it is read, not when the whole
+    array is freed. The array keeps its size; a later read of those elements gives zeros,
+    never the old values, so a caller releases only what it has finished with. Pages
+    shared with other data (the array's first and last, partly) are kept."""
+    import mmap
+    import sys
+
+    if not sys.platform.startswith("linux") or not _glibc() or a.ndim != 1 or not a.flags.c_contiguous \
+            or stop <= start:
+        return
+    page = mmap.PAGESIZE
+    base = a.ctypes.data
+    lo = -(-(base + int(start) * a.itemsize) // page) * page
+    hi = (base + int(stop) * a.itemsize) // page * page
+    if hi > lo:
+        import ctypes
+
+        _glibc().madvise(ctypes.c_void_p(lo), ctypes.c_size_t(hi - lo), _MADV_DONTNEED)

@@ -80,7 +80,8 @@ def _candidate(along, below, step, band, lev, k, wp, hp, frac, tol):
     return -1, -1
 
 
-def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1):
+def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1,
+                max_candidates=None):
     """(N,) bool: the crossings that may move (joint_reach's, a byte a crossing: the encoder
     holds this and makes the reaches batch by batch).
 
@@ -91,9 +92,13 @@ def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, ba
     rows at a time: the candidates are listed band by band in point order (4 bytes a
     candidate), and each band chains its own per sample (4 bytes a sample of the band and a
     candidate of it); a crossing's loop and distance are found again when its sample is
-    visited. ``workers`` threads list the candidates of consecutive runs of loops (each
-    run's after the runs before it in each band: the same lists) and decide runs of bands
-    (a crossing is a candidate at one sample alone): the same result for any count."""
+    visited. The candidates are counted first, then listed and decided for runs of bands
+    of at most ``max_candidates`` in all (one band at least; None: every band at once),
+    one listing pass a run over the loops with candidates in its bands (the counting pass
+    notes each loop's first and last band: 8 bytes a loop). ``workers`` threads list the
+    candidates of consecutive runs of loops (each run's after the runs before it in each
+    band: the same lists) and decide runs of bands (a crossing is a candidate at one sample alone): the
+    same result for any count and any max_candidates."""
     n = along.shape[0]
     hp = band.shape[0] // wp
     n_bands = (hp + band_rows - 1) // band_rows
@@ -107,17 +112,42 @@ def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, ba
                                      [n_loops]]))
     runs = list(zip(cuts[:-1], cuts[1:]))
     counts = np.zeros((len(runs), n_bands), np.int64)
-    _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], counts[i], _NO_CAND, False) for i in range(len(runs))])
+    span = np.empty((n_loops, 2), np.int32)  # each loop's first and last band of candidates
+    _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], counts[i], _NO_CAND, False, 0, n_bands, span)
+               for i in range(len(runs))])
     per_band = counts.sum(axis=0)
     start = np.concatenate([[0], np.cumsum(per_band)]).astype(np.int64)
     fill = start[:-1] + np.cumsum(counts, axis=0) - counts  # each run's place in each band
-    cand = np.empty(int(start[-1]), np.int32)
-    _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], fill[i], cand, True) for i in range(len(runs))])
-    bcuts = np.unique(np.concatenate([[0], np.searchsorted(start, np.linspace(0, start[-1], workers + 1)[1:-1]),
-                                      [n_bands]]))
-    _threaded([lambda a=a, b=b: _decide(along, below, step, offsets, loop_level, wp, hp, int(band_rows),
-                                         cand, start, a, b, moves) for a, b in zip(bcuts[:-1], bcuts[1:])])
+    for g0, g1 in band_groups(per_band, max_candidates):
+        base = start[g0]
+        cand = np.empty(int(start[g1] - base), np.int32)
+        at = fill - base
+        _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], at[i], cand, True, g0, g1, span)
+                   for i in range(len(runs))])
+        rel = start - base
+        bcuts = np.unique(np.concatenate([[g0], np.searchsorted(rel, np.linspace(0, rel[g1], workers + 1)[1:-1]),
+                                          [g1]]))
+        bcuts = bcuts[(bcuts >= g0) & (bcuts <= g1)]
+        _threaded([lambda a=a, b=b: _decide(along, below, step, offsets, loop_level, wp, hp, int(band_rows),
+                                             cand, rel, a, b, moves) for a, b in zip(bcuts[:-1], bcuts[1:])])
+        del cand
     return moves
+
+
+def band_groups(per_band: np.ndarray, max_candidates=None) -> list:
+    """Runs [g0, g1) of consecutive bands, each of at most max_candidates candidates in all
+    or a single band (None: one run of every band)."""
+    nb = per_band.shape[0]
+    if max_candidates is None or nb == 0:
+        return [(0, nb)]
+    out, g0, total = [], 0, 0
+    for b in range(nb):
+        if b > g0 and total + per_band[b] > max_candidates:
+            out.append((g0, b))
+            g0, total = b, 0
+        total += int(per_band[b])
+    out.append((g0, nb))
+    return out
 
 
 _NO_CAND = np.zeros(0, np.int32)
@@ -134,19 +164,33 @@ def _threaded(jobs):
 
 
 @njit(cache=True, nogil=True)
-def _list(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill):
-    """The candidates of loops [l0, l1) band by band: counted (at[b] += 1 for each of band
-    b's) or, with ``fill``, listed into cand in point order, band b's from at[b] on."""
+def _list(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows, l0, l1, at, cand, fill, b0, b1,
+          span):
+    """The candidates of loops [l0, l1) in bands [b0, b1) band by band: counted (at[b] += 1
+    for each of band b's; span[lp]: the first and last band of loop lp's candidates, (big,
+    -1) when it has none) or, with ``fill``, listed into cand in point order, band b's from
+    at[b] on (loops whose span misses the bands skipped)."""
     hp = band.shape[0] // wp
     for lp in range(l0, l1):
+        if fill and (span[lp, 1] < b0 or span[lp, 0] >= b1):
+            continue
         lev = loop_level[lp]
+        first = hp
+        last = -1
         for k in range(offsets[lp], offsets[lp + 1]):
             s, r = _candidate(along, below, step, band, lev, k, wp, hp, frac, tol)
             if s >= 0:
                 b = r // band_rows
+                first = min(first, b)
+                last = max(last, b)
+                if b < b0 or b >= b1:
+                    continue
                 if fill:
                     cand[at[b]] = k
                 at[b] += 1
+        if not fill:
+            span[lp, 0] = first
+            span[lp, 1] = last
 
 
 @njit(cache=True, nogil=True)
