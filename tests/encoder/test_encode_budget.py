@@ -116,12 +116,14 @@ def test_bytes_do_not_depend_on_the_budget(monkeypatch, preset):
     img = texture(150, 200)
     big = dumps(isophote.encode(img, preset=preset, memory="8G"))
     calls, spilled = [], []
-    real, real_file = strips.march_strip, strips.PlaneFile
+    real, real_file = strips.march_strip, strips.ArrayFile
     monkeypatch.setattr(strips, "march_strip", lambda *a: calls.append(1) or real(*a))
-    monkeypatch.setattr(strips, "PlaneFile", lambda plane: spilled.append(plane.shape) or real_file(plane))
+    monkeypatch.setattr(strips, "ArrayFile", lambda plane: spilled.append(plane.shape) or real_file(plane))
+    monkeypatch.setattr(E, "ArrayFile", lambda chains: spilled.append(chains.dtype) or real_file(chains))
     small = dumps(isophote.encode(img, preset=preset, memory=1))
     assert len(calls) > 3 * 3  # several strips a channel
-    assert spilled == [(150, 200)] * 3  # each channel's plane waited in a file for its caps
+    # each channel's plane waited in a file for its caps, its chains beside its hierarchy
+    assert spilled == [(150, 200), np.float32] * 3
     assert small == big
     assert dumps(isophote.encode(img, preset=preset, memory="300K")) == big
 

@@ -361,3 +361,29 @@ def test_points_are_their_compact_form_to_the_bit(seed):
     along = along_of(points, step)
     x, y = xy_in_place(along, below, step, wp)  # x made in along's memory
     assert x is along and x.tobytes() == points[:, 0].copy().tobytes() and y.tobytes() == points[:, 1].copy().tobytes()
+
+
+def test_xy_in_place_giving_back_the_compact_form_as_it_goes(monkeypatch):
+    """With release, below and step go chunk by chunk as y is made (their pages, once read:
+    never before), and x and y are those of the plain call."""
+    from isophote.encoder import isolines as I
+
+    rng = np.random.default_rng(3)
+    n, wp = 5000, 57
+    below = rng.integers(wp, 30 * wp, n).astype(np.int32)
+    step = rng.integers(0, 4, n).astype(np.int8)
+    along = rng.uniform(0, 20, n)
+    want = I.xy_in_place(along.copy(), below, step, wp)
+    seen = []
+    real = I.release_read
+    def spy(a, lo, hi):
+        assert hi <= n and (a is below or a is step)
+        seen.append((lo, hi))
+        real(a, lo, hi)
+    monkeypatch.setattr(I, "release_read", spy)
+    monkeypatch.setattr(I, "POINTS_CHUNK", 700)
+    b2, s2 = below.copy(), step.copy()
+    below, step = b2, s2
+    got = I.xy_in_place(along.copy(), below, step, wp, release=True)
+    assert all(np.array_equal(a, b) for a, b in zip(got, want))
+    assert seen[::2] == [(a, min(a + 700, n)) for a in range(0, n, 700)]  # in order, each chunk once read

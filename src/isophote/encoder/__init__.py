@@ -17,6 +17,7 @@ import numpy as np
 from ._kernels.anchors import joint_moves, joint_reach
 from ..shared.grid import QUANT
 from ..shared.heap import release_read
+from ..shared.spill import ArrayFile
 from ._kernels.fit import QUANT as FIT_QUANT
 from .. import threads
 from ..colour import rgb_to_yuv
@@ -213,8 +214,8 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
             tree = tree.result()
         points = np.round(points * q) / q
     else:  # one after the other: their temporaries do not add up (same result)
-        if spill:
-            iso.values.spill()  # the plane waits on disk until the caps (budget.py)
+        if spill:  # the plane waits on disk until the caps, the chains beside the hierarchy (budget.py)
+            iso.values.spill()
         held = [iso]  # each part goes after the stage that reads it last
         del iso
         # the chains on the file's grid, batch by batch, held as float32 multiples of it
@@ -222,8 +223,12 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
         compact = size * FIT_MARGIN * q < 2**24
         points, offsets, border = fit_first(held, opts.snap, fit_batch_points(memory), q,
                                             np.float32 if compact else np.float64, move_candidates(memory))
+        chains = _aside(points, spill)  # the hierarchy does not read them
+        del points
         tree = build_hierarchy_held(held, levels)
         held.clear()
+        points = chains() if callable(chains) else chains
+        del chains
         points = points.astype(np.float64) / q
     points, border = start_at_first_joint(points, offsets, border)
     return Channel(
@@ -240,6 +245,17 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
         cap_value=np.round(tree.cap_value / cap_step) * cap_step,
         base_band=base_band,
     )
+
+
+def _aside(a: np.ndarray, spill: bool):
+    """``a`` as it is, or with ``spill`` a callable that reads it back from a temporary file
+    (shared/spill.py; ``a`` as it is where none can be written)."""
+    if not spill:
+        return a
+    try:
+        return ArrayFile(a).whole
+    except OSError:
+        return a
 
 
 def cap_value_step(eps: float) -> float:

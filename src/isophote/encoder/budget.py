@@ -13,7 +13,8 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
     fit batches    loops are fitted in batches of at most FIT_SHARE of the budget (about
                    BYTES_PER_FIT_POINT bytes a polyline point of temporaries);
     plane          a channel's prepared plane over SPILL_SHARE of the budget is kept in a
-                   temporary file between the march and the caps (spill_plane);
+                   temporary file between the march and the caps (spill_plane), and its
+                   fitted chains beside the hierarchy;
     fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
@@ -103,7 +104,8 @@ def move_candidates(memory: int) -> int:
 
 def spill_plane(plane_bytes: int, memory: int) -> bool:
     """Whether a channel's prepared plane waits in a temporary file between the march and
-    the caps (encoder/strips.py GridRows.spill): when it is over SPILL_SHARE of the budget."""
+    the caps (encoder/strips.py GridRows.spill), and its fitted chains beside the hierarchy
+    (encoder._aside): when the plane is over SPILL_SHARE of the budget."""
     return plane_bytes > SPILL_SHARE * memory
 
 

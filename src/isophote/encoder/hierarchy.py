@@ -167,7 +167,7 @@ def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
     n_rows = max(hp - 3, 1)
     iso = replace(iso, values=None)  # the plane goes
     # the points' x and y (x in along's memory), the compact form's samples going with them
-    xy = xy_in_place(iso.along, iso.below, iso.step, wp)
+    xy = xy_in_place(iso.along, iso.below, iso.step, wp, release=True)
     held.append(replace(iso, along=None, below=None, step=None))
     del iso
     return _enclosing(held[0], xy, *caps, n_rows=n_rows)

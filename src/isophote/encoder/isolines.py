@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..shared.heap import release_read
+
 from ._kernels.marching import march_loops, pad_bands
 from .ribbon import tolerances
 
@@ -33,7 +35,7 @@ class Isolines:
         4-neighbour of it the edge's other end, the above sample (on the segment's left), is
         (STEP_RIGHT, STEP_LEFT, STEP_DOWN, STEP_UP: +1, -1, +Wp, -Wp; a byte a point rather
         than the sample's 4); ``above`` gives those samples (above_of).
-    band : (Hp, Wp) int16 padded band grid; values : (Hp, Wp) float64 padded grid (pad = 0), or
+    band : (Hp, Wp) padded band grid (int16; uint8 from the strips when it fits: levels.band_dtype); values : (Hp, Wp) float64 padded grid (pad = 0), or
         a row source giving rows of it (encoder/strips.py GridRows; hierarchy.value_rows).
     base_band : the band of the root region; the loops of levels below it would lie wholly on
         the image border and are left out (see model.py).
@@ -124,13 +126,18 @@ def _xy_rows(below, step, along, wp):
     return np.where(horizontal, along, (c - 1) * 0.5), np.where(horizontal, (r - 1) * 0.5, along)
 
 
-def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int):
+def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int, release: bool = False):
     """(x, y): points_of's columns, y a new array and x made in ``along``'s own memory (which
-    it consumes): 8 bytes a point beside the compact form rather than 16."""
+    it consumes): 8 bytes a point beside the compact form rather than 16. With ``release``
+    (for a caller that drops below and step afterwards) their pages go back chunk by chunk
+    as y is made (shared/heap.py release_read): y's 8 bytes a point come as their 5 go."""
     y = np.empty_like(along)
     for a in range(0, along.shape[0], POINTS_CHUNK):
         b = min(a + POINTS_CHUNK, along.shape[0])
         along[a:b], y[a:b] = _xy_rows(below[a:b], step[a:b], along[a:b], wp)
+        if release:
+            release_read(below, a, b)
+            release_read(step, a, b)
     return along, y
 
 

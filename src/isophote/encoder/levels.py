@@ -32,6 +32,13 @@ def bands(values: np.ndarray, levels: np.ndarray) -> np.ndarray:
     return np.searchsorted(levels, values, side="right").astype(np.int16)
 
 
+def band_dtype(n_levels: int):
+    """The smallest type that holds a channel's bands (0 .. n_levels): uint8 for fewer than
+    255 levels (every preset's), else int16. The encoder's whole-channel band grid is held
+    in it (encoder/strips.py: 4 bytes a pixel less than int16 on the padded grid)."""
+    return np.uint8 if n_levels < 255 else np.int16
+
+
 def channel_levels(name: str, options) -> np.ndarray:
     """The levels of channel ``name`` ("Y", "U", "V", "A") under resolved EncodeOptions."""
     explicit = {"Y": options.levels_y, "U": options.levels_u, "V": options.levels_v}.get(name)

@@ -33,6 +33,8 @@ from .isolines import Isolines, along_of, step_codes
 from .looporder import merge_loops
 from .mapping import map_rows_into, x_pass_rows, x_rows
 from .budget import trim_heap
+from .levels import band_dtype
+from ..shared.spill import ArrayFile
 
 FIELDS = ("along", "border", "below", "step", "tol")
 
@@ -55,7 +57,7 @@ def _window(v, e, opts, w0, w1, hp, wp, errors, h=None):
     """Padded values (and, with ``errors``, sample errors, from e, a row source of the
     plane's errors: error_source's; else None) of padded rows [w0, w1), the padding ring
     and the rows outside the grid 0; and where the grid's rows lie in them (a, rows). v is
-    the plane, or a row source of its h rows (PlaneFile)."""
+    the plane, or a row source of its h rows (ArrayFile)."""
     g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
     a = g0 + 1 - w0
     rows = max(g1 - g0, 0)
@@ -104,43 +106,17 @@ class GridRows:
         return _window(self.v, None, self.opts, w0, w1, self.hp, self.wp, False, self.h)[0]
 
     def spill(self) -> bool:
-        """Move the plane to a temporary file (PlaneFile), read back a few rows at a time
+        """Move the plane to a temporary file (shared/spill.py ArrayFile), read back a few rows at a time
         when the caps ask: between the march and the caps (the joint moves, the fit, the
         regions' labels) it is not read. False, and the plane kept, where no temporary
         file can be written."""
         if callable(self.v):
             return True
         try:
-            self.v = PlaneFile(self.v)
+            self.v = ArrayFile(self.v)
         except OSError:
             return False
         return True
-
-
-class PlaneFile:
-    """A float64 plane in a temporary file (deleted when closed, or when this goes):
-    rows(a, b) reads rows [a, b) of it."""
-
-    def __init__(self, plane: np.ndarray):
-        import tempfile
-
-        self.shape = plane.shape
-        self.file = tempfile.TemporaryFile(prefix="isophote-plane-")
-        try:
-            np.ascontiguousarray(plane, np.float64).tofile(self.file)
-            self.file.flush()
-        except BaseException:
-            self.file.close()
-            raise
-
-    def __call__(self, a: int, b: int) -> np.ndarray:
-        w = self.shape[1]
-        n = max(b - a, 0)
-        self.file.seek(a * w * 8)
-        out = np.fromfile(self.file, np.float64, n * w)
-        if out.shape[0] != n * w:
-            raise OSError("the plane's temporary file was cut short")
-        return out.reshape(n, w)
 
 
 def error_source(eps, shape):
@@ -272,7 +248,7 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
     h, w = v.shape
     hp, wp = 2 * h + 3, 2 * w + 3
     rows = max(int(rows), 1)
-    band = np.zeros((hp, wp), np.int16)
+    band = np.zeros((hp, wp), band_dtype(levels.shape[0]))  # the windows' are int16
     bounds = [(r0, min(r0 + rows, hp - 1)) for r0 in range(0, hp - 1, rows)]
     parts, frame, carried, saddles = [], [], {}, []
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:

@@ -65,8 +65,8 @@ def innermost_enclosing(px, py, exclude, x, y, offsets, blocks, row_start, row_o
     """
     nq = px.shape[0]
     nloops = area.shape[0]
-    wind = np.zeros(nloops, np.int64)
-    touched = np.empty(nloops, np.int64)
+    wind = np.zeros(nloops, np.int32)  # per-loop scratch int32: 12 bytes a loop
+    touched = np.empty(nloops, np.int32)
     stamp = np.full(nloops, -1, np.int64)  # query that last listed the loop in `touched`
     out = np.full(nq, -1, np.int64)
     for q in range(nq):
@@ -221,11 +221,12 @@ def innermost_enclosing_rows(px, py, exclude, x, y, offsets, blocks, row_start, 
     o = np.argsort(px, kind="mergesort")
     o = o[np.argsort(py[o], kind="mergesort")]
     o = o[np.argsort(kq[o], kind="mergesort")]
-    wind = np.zeros(nloops, np.int64)
-    first = np.full(nloops, np.iinfo(np.int64).max, np.int64)
-    where = np.full(nloops, -1, np.int64)
-    members = np.empty(nloops, np.int64)
-    touched = np.empty(nloops, np.int64)
+    # per-loop scratch, int32 (20 bytes a loop; row_order's places are int32 too)
+    wind = np.zeros(nloops, np.int32)
+    first = np.full(nloops, np.iinfo(np.int32).max, np.int32)
+    where = np.full(nloops, -1, np.int32)
+    members = np.empty(nloops, np.int32)
+    touched = np.empty(nloops, np.int32)
     g0 = 0
     while g0 < nq:
         k = kq[o[g0]]
@@ -243,7 +244,7 @@ def innermost_enclosing_rows(px, py, exclude, x, y, offsets, blocks, row_start, 
             while p < nc and xs[order[p]] < px[q]:
                 c = order[p]
                 lp = ls[c]
-                if first[lp] == np.iinfo(np.int64).max:
+                if first[lp] == np.iinfo(np.int32).max:
                     touched[nt] = lp
                     nt += 1
                 if ps[c] < first[lp]:
@@ -277,7 +278,7 @@ def innermost_enclosing_rows(px, py, exclude, x, y, offsets, blocks, row_start, 
         for i in range(nt):
             lp = touched[i]
             wind[lp] = 0
-            first[lp] = np.iinfo(np.int64).max
+            first[lp] = np.iinfo(np.int32).max
             where[lp] = -1
         g0 = g1
     return out
