@@ -178,9 +178,11 @@ def test_cli_memory_flag(tmp_path, capsys):
 # and the grid dropped as the hierarchy and the fit have read it 977 MB (same session); the
 # grid values not held, the loops' own copies, the reaches as a byte and the fit first 708-711
 # MB (952 on 69a3a48 in the same session, session 20); the polylines' compact form and each
-# part dropped after its last reader 596-597 MB (session 21). What remains is the channel's
-# whole-image polylines and bands (22 bytes a point and 8 a pixel) and the fit's and the
-# hierarchy's temporaries beside them (docs/streaming.md).
+# part dropped after its last reader 596-597 MB (session 21); the caps per cap, the errors
+# a row source, the bands a byte, the plane and chains in temporary files (this budget
+# spills them) 531-532 MB (session 22). What remains is the channel's whole-image
+# polylines and bands (22 bytes a point and 4 a pixel) and the fit's and the hierarchy's
+# temporaries beside them (docs/streaming.md).
 RSS_CHILD = r"""
 import numpy as np, isophote
 n = 2048
@@ -191,7 +193,7 @@ vi = isophote.encode(np.clip(img, 0, 255).astype(np.uint8), preset="balanced", m
 assert sum(c.points.shape[0] for c in vi.channels) > 500_000
 """
 UNBOUNDED_PEAK_MB = 1671
-BOUNDED_PEAK_MB = 1150  # 596-597 MB with the kernels cached (708-711 before session 21; 829-984 when the child compiled them)
+BOUNDED_PEAK_MB = 1150  # 531-532 MB with the kernels cached (596-597 in session 21; 829-984 when the child compiled them)
 
 
 def test_peak_rss_of_a_4mp_encode_stays_under_the_asserted_bound():

@@ -18,8 +18,8 @@ What it sizes today (encoder/strips.py, encoder/__init__.py):
     fit/hierarchy  built side by side only when both sets of temporaries fit;
     channels       two channels are encoded at a time only when two of them fit
                    (PAIR_BYTES_PER_PIXEL_TEXTURED), else one.
-What it does not bound yet: the padded bands of a channel (8 bytes a pixel; the values
-are computed again from the plane where the caps read them, encoder/strips.py GridRows),
+What it does not bound yet: the padded bands of a channel (4 bytes a pixel as uint8; the
+values are computed again from the plane where the caps read them, encoder/strips.py GridRows),
 its polylines (22 bytes a point in their compact form, encoder/isolines.py; 1-4.5 points a
 pixel on textured photographs), and beside them the joint moves' and the hierarchy's
 temporaries (4 bytes a candidate crossing; the regions' labels, 16 bytes a pixel; then 12
