@@ -18,11 +18,11 @@ def merge_loops(parts) -> dict:
     in the output and dropped, so the merge holds the parts' results, one output field and
     one part's destinations at a time."""
     keys = np.concatenate([p.pop("keys") for p in parts])
-    order = np.argsort(keys, kind="stable")
+    order = np.argsort(keys, kind="stable").astype(np.int32)  # a channel's loops: far below 2**31
     del keys
     lengths = np.concatenate([np.diff(p["offsets"]) for p in parts])
     rank = np.empty_like(order)
-    rank[order] = np.arange(order.shape[0])  # each loop's place in the output
+    rank[order] = np.arange(order.shape[0], dtype=np.int32)  # each loop's place in the output
     offsets = np.zeros(order.shape[0] + 1, np.int64)
     np.cumsum(lengths[order], out=offsets[1:])
     out = {"offsets": offsets, "level": np.concatenate([p["level"] for p in parts])[order]}
