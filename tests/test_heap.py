@@ -42,3 +42,32 @@ def test_release_read_leaves_other_arrays_alone():
     b = np.arange(12.0).reshape(3, 4)  # not 1-D
     release_read(b, 0, 3)
     assert np.array_equal(b, np.arange(12.0).reshape(3, 4))
+
+
+def test_arrays_wait_on_disk_but_never_in_a_tmpfs(monkeypatch, tmp_path):
+    """An ArrayFile goes to the temporary directory unless that is in memory (a tmpfs: the
+    file would save nothing), and the encoder then keeps the plane and the chains, with the
+    same bytes."""
+    import isophote
+    from isophote.encoder import strips
+    from isophote.format.isoph import dumps
+    from isophote.shared import spill
+
+    assert spill.file_system("/proc/self") in (None, "proc")
+    if spill.file_system("/") is not None:
+        assert spill.file_system(str(tmp_path)) not in (None, "proc")
+    a = np.arange(12.0).reshape(4, 3)
+    monkeypatch.setattr(spill, "file_system", lambda path: "tmpfs")
+    with pytest.raises(OSError, match="in memory"):
+        spill.ArrayFile(a)
+    rows = strips.GridRows(a, None, 11, 9)
+    assert not rows.spill() and rows.v is a  # kept
+    rng = np.random.default_rng(2)
+    img = np.clip(rng.normal(128, 40, (60, 80, 3)), 0, 255).astype(np.uint8)
+    kept = dumps(isophote.encode(img, memory=1))
+    made = []
+    real_init = spill.ArrayFile.__init__
+    monkeypatch.setattr(spill, "file_system", lambda path: "ext4")
+    monkeypatch.setattr(spill.ArrayFile, "__init__", lambda self, x: made.append(x.shape) or real_init(self, x))
+    assert dumps(isophote.encode(img, memory=1)) == kept
+    assert len(made) == 6  # each channel's plane and chains went to files this time
