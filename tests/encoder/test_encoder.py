@@ -837,6 +837,30 @@ def test_cap_values_lie_on_half_the_input_error():
     assert np.allclose(ch.cap_value / (41.0 / QUANT), np.round(ch.cap_value / (41.0 / QUANT)))
 
 
+def test_chain_rotation_kernel_matches_its_twin():
+    """_kernels/rotate.py against its NumPy twin (a sort of every joint): chains of 1 to 9
+    segments, joints tied in y, in x and in both (then the first), signed zeros."""
+    from isophote.encoder._kernels.rotate import rotate_chains
+    from isophote.encoder._kernels.rotate_ref import rotate_chains as rotate_chains_ref
+
+    rng = np.random.default_rng(17)
+    chains, borders = [], []
+    for k in range(300):
+        n = int(rng.integers(1, 10))
+        body = rng.integers(-2, 3, (3 * n, 2)).astype(float) * 0.5  # coarse: many ties
+        if k % 7 == 0:
+            body[::3, 1] = -0.0 if k % 2 else 0.0
+        chains.append(np.vstack([body, body[:1]]))
+        borders.append(rng.random(n) < 0.3)
+    points = np.vstack(chains)
+    offsets = np.concatenate([[0], np.cumsum([c.shape[0] for c in chains])]).astype(np.int64)
+    border = np.concatenate(borders)
+    got, ref = rotate_chains(points, offsets, border), rotate_chains_ref(points, offsets, border)
+    assert got[0].tobytes() == ref[0].tobytes() and np.array_equal(got[1], ref[1])
+    moved = sum(not np.array_equal(got[0][offsets[i]], points[offsets[i]]) for i in range(300))
+    assert moved > 100
+
+
 def test_chains_start_at_their_first_joint_in_scan_order(monkeypatch):
     """encoder.start_at_first_joint: a hand-made square chain and its border flags rotate to
     start at the top-left joint; on a photograph every chain starts at its joint first in

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import isophote
-from isophote.encoder.noise import CAP_FRACTION, local_noise, prepare_plane, residual, sample_error
+from isophote.encoder.noise import CAP_FRACTION, local_noise, medians, prepare_plane, residual, sample_error
 from isophote.encoder._kernels.prune_ref import prune as prune_ref
 from isophote.encoder.prune import prune_extrema
 from isophote.imageio import dct_quantisation_error, read_image
@@ -50,6 +50,9 @@ def test_window_medians_are_numpys(win):
         cols = np.array([0, 1, 2, 17, 83 - win], np.int64)
         got = window_medians(rp, rows, cols, win)
         assert np.array_equal(got, window_medians_ref(rp, rows, cols, win))
+        # the encoder's runs of lattice rows on threads: the same values, any count
+        for workers in (1, 2, 3, 40):
+            assert np.array_equal(medians(rp, rows, cols, win, workers), got), workers
     one = np.arange(9.0).reshape(3, 3)[::-1]  # 8 .. 0: the middle of 9 is 4
     assert window_medians(np.ascontiguousarray(one), np.zeros(1, np.int64), np.zeros(1, np.int64), 3)[0, 0] == 4.0
     two = np.array([[1.0, 9.0], [3.0, 4.0]])  # the mean of the middle two, 3 and 4

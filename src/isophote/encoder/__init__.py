@@ -15,6 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from ._kernels.anchors import joint_moves, joint_reach
+from ._kernels.rotate import rotate_chains
 from ..shared.grid import QUANT
 from ..shared.heap import release_read
 from ..shared.spill import ArrayFile
@@ -522,30 +523,12 @@ def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.nda
     then the first): the same segments, so the same curves. The fitter starts a loop at its
     sharpest turn, which fits best; the file codes each chain's first point after the
     previous chain's, and loops come in scan order of their tops, so first points near the
-    top code shorter: 1.3-1.5 % of the bytes (astronaut, coffee, camera; paper, balanced)."""
-    n_loops = offsets.shape[0] - 1
-    if n_loops == 0:
+    top code shorter: 1.3-1.5 % of the bytes (astronaut, coffee, camera; paper, balanced).
+    One pass a chain (_kernels/rotate.py; its NumPy twin rotate_ref.py)."""
+    if offsets.shape[0] <= 1:
         return points, border
-    n_pts = np.diff(offsets)
-    n_seg = (n_pts - 1) // 3
-    seg_loop = np.repeat(np.arange(n_loops), n_seg)
-    seg_base = np.cumsum(n_seg) - n_seg
-    g = np.arange(seg_loop.shape[0]) - seg_base[seg_loop]  # each segment's place in its chain
-    joints = points[offsets[:-1][seg_loop] + 3 * g]  # each segment's first point
-    order = np.lexsort((np.arange(seg_loop.shape[0]), joints[:, 0], joints[:, 1], seg_loop))
-    first = np.ones(order.shape[0], bool)
-    first[1:] = seg_loop[order[1:]] != seg_loop[order[:-1]]
-    rot = order[first] - seg_base  # (n_loops,) the segment each chain starts at
-    # segments: new g takes old (g + rot) mod n_seg
-    src_seg = seg_base[seg_loop] + (g + rot[seg_loop]) % np.maximum(n_seg[seg_loop], 1)
-    new_border = border[src_seg]
-    # points: a chain's body (all but its last point) rolls by 3 rot; its last point is its first
-    p_loop = np.repeat(np.arange(n_loops), n_pts)
-    i = np.arange(points.shape[0]) - offsets[:-1][p_loop]
-    body = np.maximum(n_pts[p_loop] - 1, 1)
-    src = offsets[:-1][p_loop] + (i + 3 * rot[p_loop]) % body
-    new_points = points[src]
-    return new_points, new_border
+    return rotate_chains(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(offsets, np.int64),
+                         np.ascontiguousarray(border))
 
 
 def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import threads
 from ._kernels.median import window_medians
 from .prune import prune_extrema
 
@@ -136,12 +137,25 @@ def noise_rows(plane: np.ndarray, window: int = WINDOW, stride: int = STRIDE) ->
     cy = stride // 2 + np.arange(ny) * stride  # centre rows in image coordinates
     cx = stride // 2 + np.arange(nx) * stride
     del r
-    coarse = MAD_TO_SIGMA * window_medians(rp, (cy - win // 2 + pad_lo).astype(np.int64),
-                                           (cx - win // 2 + pad_lo).astype(np.int64), win)
+    coarse = MAD_TO_SIGMA * medians(rp, (cy - win // 2 + pad_lo).astype(np.int64),
+                                    (cx - win // 2 + pad_lo).astype(np.int64), win)
     del rp
     yy = np.clip((np.arange(h) - stride // 2) / stride, 0, ny - 1)
     xx = np.clip((np.arange(w) - stride // 2) / stride, 0, nx - 1)
     return NoiseRows(coarse, yy, xx)
+
+
+def medians(rp, rows, cols, win, workers: int | None = None) -> np.ndarray:
+    """window_medians (_kernels/median.py) of the lattice's rows in ``workers`` runs at a time
+    (default: the threads this process may use, isophote.threads): each window's median is
+    its own, so the same values whatever the runs."""
+    n = threads.available() if workers is None else max(1, int(workers))
+    cuts = np.linspace(0, rows.shape[0], min(n, max(rows.shape[0], 1)) + 1).astype(np.int64)
+    if cuts.shape[0] <= 2:
+        return window_medians(rp, rows, cols, win)
+    with threads.pool(n) as pool:
+        parts = list(pool.map(lambda ab: window_medians(rp, rows[ab[0]:ab[1]], cols, win), zip(cuts[:-1], cuts[1:])))
+    return np.concatenate(parts, axis=0)
 
 
 def sample_error(plane, eps0, levels, local, floor=0.0) -> np.ndarray:
