@@ -29,7 +29,7 @@ from ..options import EncodeOptions, make
 from ..provenance import encoder_meta
 from .fit import ANCHOR_REACH, fit_many
 from .hierarchy import build_hierarchy, build_hierarchy_held
-from .isolines import Isolines, points_of
+from .isolines import Isolines, points_of, ranges
 from .budget import (
     fit_batch_points, move_candidates, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, spill_plane,
     strip_rows,
@@ -447,7 +447,7 @@ def _fit_batch(iso_points, offs, iso_border, tol, reach, snap):
 
     # Pieces to fit: whole loops without border (taken in one slice), then the isoline runs.
     fit_r = np.flatnonzero(~run_line)
-    fit_idx = rot[_ranges(run_start[fit_r], run_pts[fit_r])]
+    fit_idx = rot[ranges(run_start[fit_r], run_pts[fit_r])]
     counts = np.concatenate([n_seg[closed_loops], run_pts[fit_r]]).astype(np.int64)
     piece_closed = np.zeros(counts.shape[0], bool)
     piece_closed[:n_closed] = True
@@ -462,7 +462,7 @@ def _fit_batch(iso_points, offs, iso_border, tol, reach, snap):
         np.concatenate([reach[in_closed], reach[fit_idx]]),
     )
     line_r = np.flatnonzero(run_line)
-    lines, l_off = _line_chains(iso_points[rot[_ranges(run_start[line_r], run_pts[line_r])]],
+    lines, l_off = _line_chains(iso_points[rot[ranges(run_start[line_r], run_pts[line_r])]],
                                 run_pts[line_r])
 
     # A border loop's chain: its runs' chains in order, each after the first without the
@@ -485,15 +485,15 @@ def _fit_batch(iso_points, offs, iso_border, tol, reach, snap):
     length[bl] = np.bincount(kept_loop, weights=src_len, minlength=bl.shape[0]).astype(np.int64)
     offsets = np.concatenate([[0], np.cumsum(length)]).astype(np.int64)
     points = np.empty((int(offsets[-1]), 2))
-    points[_ranges(offsets[closed_loops], length[closed_loops])] = chains[: c_off[n_closed]]
-    points[_ranges(offsets[bl], length[bl])] = np.concatenate([chains, lines])[_ranges(src_start, src_len)]
+    points[ranges(offsets[closed_loops], length[closed_loops])] = chains[: c_off[n_closed]]
+    points[ranges(offsets[bl], length[bl])] = np.concatenate([chains, lines])[ranges(src_start, src_len)]
     points[offsets[bl + 1] - 1] = points[offsets[bl]]  # the loop closes exactly
     border = np.zeros((int(offsets[-1]) - n_loops) // 3, bool)
     seg_off = (offsets - np.arange(n_loops + 1)) // 3
     before = np.cumsum(run_segs) - run_segs
     run_seg0 = seg_off[bl][kept_loop] + before - before[first_run[keep]][kept_loop]
     line_k = run_line[keep]
-    border[_ranges(run_seg0[line_k], run_segs[line_k])] = True
+    border[ranges(run_seg0[line_k], run_segs[line_k])] = True
     return points, offsets, border
 
 
@@ -530,12 +530,6 @@ def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.nda
     return rotate_chains(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(offsets, np.int64),
                          np.ascontiguousarray(border))
 
-
-def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Concatenated index ranges [starts[k], starts[k] + lengths[k])."""
-    total = int(lengths.sum())
-    before = np.cumsum(lengths) - lengths
-    return np.repeat(starts - before, lengths) + np.arange(total)
 
 
 def _line_chains(pts: np.ndarray, counts: np.ndarray):

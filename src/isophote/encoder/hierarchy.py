@@ -28,7 +28,7 @@ from ._kernels.regions import (
     value_sums_rows,
     whole,
 )
-from .isolines import Isolines, xy_in_place
+from .isolines import Isolines, ranges, xy_in_place
 
 
 @dataclass(frozen=True)
@@ -163,7 +163,7 @@ def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
     hp, wp = iso.band.shape
     bands = [iso.band]
     iso = replace(iso, band=None)  # the bands go once the caps' bands are read
-    caps = _caps(iso, levels, lab, m, bounds, bands, wp)
+    caps = _caps(iso, levels, lab, m, bounds, bands)
     n_rows = max(hp - 3, 1)
     iso = replace(iso, values=None)  # the plane goes
     # the points' x and y (x in along's memory), the compact form's samples going with them
@@ -180,12 +180,11 @@ def _labels(iso: Isolines, levels: np.ndarray):
     return label_regions_rows(value_rows(iso.values), iso.band, np.asarray(levels, np.float64))
 
 
-def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, bounds: list, bands: list, wp: int | None = None):
+def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, bounds: list, bands: list):
     """The caps on the labelled band grid (the one labels array in ``lab``, emptied: it goes
     once the caps are fitted; ``bounds``: [lo, hi], the regions' bounding levels,
     crossing_levels', emptied once the candidates are known; ``bands``: [the band grid],
-    emptied once the candidates' bands are read, before the regions' distances; wp its
-    width, by default the Isolines' band grid's):
+    emptied once the candidates' bands are read, before the regions' distances):
     (n_regions, cap_band, cap_xy, cap_value).
 
     A region is a cap when its bounding levels are one (border stretches are no isolines:
@@ -205,7 +204,7 @@ def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, bounds: list, ba
     del is_cap
     slot = slots_of_regions(m, cand)
     band = bands.pop()
-    wp = band.shape[1] if wp is None else wp
+    wp = band.shape[1]
     cap_band = region_bands(labels, band, slot)
     del band
     deep, count = region_deep(labels, slot)
@@ -249,7 +248,7 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
     # crosses asks along a ray from the midpoint of one of its segments instead
     parent, seen = sweep_enclosing(x, y, offsets, blocks, row_start, row_order, lev_loop, c, n_rows)
     unseen = np.flatnonzero(~seen)
-    cand = _ranges(offsets[unseen], np.diff(offsets)[unseen])  # the points of the unseen loops
+    cand = ranges(offsets[unseen], np.diff(offsets)[unseen])  # the points of the unseen loops
     cand = cand[~iso.border[cand] & (y[cand] != y[successors(cand, offsets)])]
     has_q, first = np.unique(np.searchsorted(offsets, cand, "right") - 1, return_index=True)
     qs = cand[first]
@@ -271,10 +270,3 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
         cap_xy=cap_xy,
         cap_value=np.asarray(cap_value, np.float64),
     )
-
-
-def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Concatenated index ranges [starts[k], starts[k] + lengths[k])."""
-    total = int(lengths.sum())
-    before = np.cumsum(lengths) - lengths
-    return np.repeat(starts - before, lengths) + np.arange(total, dtype=np.int64)

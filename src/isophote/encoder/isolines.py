@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..shared.heap import release_read
-
 from ._kernels.marching import march_loops, pad_bands
 from .ribbon import tolerances
 
@@ -124,6 +123,14 @@ def _xy_rows(below, step, along, wp):
     r, c = np.divmod(below.astype(np.int64), wp)
     horizontal = step <= STEP_LEFT
     return np.where(horizontal, along, (c - 1) * 0.5), np.where(horizontal, (r - 1) * 0.5, along)
+
+
+def ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Concatenated index ranges [starts[k], starts[k] + lengths[k]) (int64): the points of
+    some loops, the segments of some runs."""
+    total = int(lengths.sum())
+    before = np.cumsum(lengths) - lengths
+    return np.repeat(starts - before, lengths) + np.arange(total, dtype=np.int64)
 
 
 def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int, release: bool = False):

@@ -53,17 +53,17 @@ def grid_window(v, e, levels, opts, w0, w1, hp, wp):
     return wv, wb, we
 
 
-def _window(v, e, opts, w0, w1, hp, wp, errors, h=None):
+def _window(v, e, opts, w0, w1, hp, wp, errors):
     """Padded values (and, with ``errors``, sample errors, from e, a row source of the
     plane's errors: error_source's; else None) of padded rows [w0, w1), the padding ring
     and the rows outside the grid 0; and where the grid's rows lie in them (a, rows). v is
-    the plane, or a row source of its h rows (ArrayFile)."""
+    the plane, or the file it waits in (ArrayFile: its rows read when asked)."""
     g0, g1 = max(w0, 1) - 1, min(w1, hp - 1) - 1
     a = g0 + 1 - w0
     rows = max(g1 - g0, 0)
     wv = np.empty((w1 - w0, wp))
     we = np.empty((w1 - w0, wp)) if errors else None
-    h = v.shape[0] if h is None else h
+    h = v.shape[0]
     xr = x_pass_rows(h, g0, g1)
     i0, i1 = x_rows(h, g0, g1) if rows else (0, 0)  # the pixel rows these grid rows read
     v0 = 0
@@ -100,10 +100,9 @@ class GridRows:
 
     def __init__(self, v, opts, hp, wp):
         self.v, self.opts, self.hp, self.wp = v, opts, hp, wp  # the errors are not needed
-        self.h = v.shape[0]
 
     def __call__(self, w0: int, w1: int) -> np.ndarray:
-        return _window(self.v, None, self.opts, w0, w1, self.hp, self.wp, False, self.h)[0]
+        return _window(self.v, None, self.opts, w0, w1, self.hp, self.wp, False)[0]
 
     def spill(self) -> bool:
         """Move the plane to a temporary file (shared/spill.py ArrayFile), read back a few rows at a time
