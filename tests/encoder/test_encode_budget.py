@@ -61,14 +61,24 @@ def _plane_grid(preset="balanced", name="Y", h=90, w=120):
     return opts, levels, grid, grid_eps
 
 
-def test_fit_batches_give_the_chains_of_one_batch():
+@pytest.mark.parametrize("n_threads", [1, 2])
+def test_fit_batches_give_the_chains_of_one_batch(n_threads, monkeypatch):
+    """Batches give the chains of one batch, one at a time (one thread) and FIT_FLIGHT at a
+    time (two threads: the results gathered in order)."""
+    from isophote import threads
+
     opts, levels, grid, grid_eps = _plane_grid()
     iso = find_isolines(grid, grid_eps, levels, opts.min_tolerance, opts.max_tolerance)
     whole = E.fit_isolines(iso, opts.snap)
+    monkeypatch.setattr(threads, "processors", lambda: n_threads)
+    submitted = []
+    real = threads.pool
+    monkeypatch.setattr(threads, "pool", lambda n: submitted.append(n) or real(n))
     for max_points in (1, 200, 5000):
         got = E.fit_isolines(iso, opts.snap, max_points)
         for a, b in zip(whole, got):
             assert a.dtype == b.dtype and np.array_equal(a, b), max_points
+    assert set(submitted) == {1 if n_threads == 1 else E.FIT_FLIGHT}
 
 
 @pytest.mark.parametrize("preset", ["balanced", "high"])

@@ -102,3 +102,30 @@ def test_loops_found_from_offsets_and_blocks_and_successors_of_ranges():
     assert np.array_equal(successors(np.arange(n), offsets), nxt)
     for a, b in ((0, n), (0, 1), (n - 1, n), (5, 5), (7, 400), (123, 1000)):
         assert np.array_equal(successors_of_range(a, b, offsets), nxt[a:b]), (a, b)
+
+
+@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
+def test_runs_of_rows_on_threads_equal_one_sweep(name):
+    """The parents and the caps' contours found by runs of rows (hierarchy.row_runs, each
+    run on a thread: sweep_parents, enclosing_rows) equal one sweep's and one call's, for
+    any number of runs, including more runs than rows hold segments."""
+    from isophote.encoder._kernels.enclose import innermost_enclosing_rows, sweep_enclosing
+    from isophote.encoder.hierarchy import enclosing_rows, row_runs, sweep_parents
+
+    iso, h, (x, y, offsets, blocks, rs, ro, n_rows) = traced(name)
+    table = (x, y, offsets, blocks, rs, ro)
+    level = iso.level.astype(np.int64)
+    want_parent, want_seen = sweep_enclosing(*table, level, iso.n_loops, n_rows)
+    px, py = h.cap_xy[:, 0].copy(), h.cap_xy[:, 1].copy()
+    area = loop_areas(iso)
+    want_caps = innermost_enclosing_rows(px, py, np.full(len(px), -1, np.int64), *table, area, level, n_rows)
+    assert want_seen.sum() > 20 and (want_caps >= 0).sum() > 5
+    for n in (1, 2, 3, 7, n_rows + 5):
+        runs = row_runs(rs, n_rows, n)
+        assert runs[0][0] == 0 and runs[-1][1] == n_rows and len(runs) <= n
+        assert all(a[1] == b[0] for a, b in zip(runs[:-1], runs[1:]))
+        if n in (2, 3):
+            assert len(runs) == n  # the split is real
+        parent, seen = sweep_parents(table, level, iso.n_loops, runs)
+        assert np.array_equal(parent, want_parent) and np.array_equal(seen, want_seen), n
+        assert np.array_equal(enclosing_rows(px, py, table, area, level, n_rows, runs), want_caps), n

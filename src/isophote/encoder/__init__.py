@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
@@ -58,6 +59,9 @@ STRIP_WORKERS = 2
 # ribbon's width beyond the contour at most): the bound under which float32 holds them as
 # multiples of the file's grid exactly (encode_channel).
 FIT_MARGIN = 4
+# Fit batches in flight at a time on two or more threads (fit_loops): a batch's NumPy
+# gathering runs single-threaded, so one batch's overlaps the other's compiled fit.
+FIT_FLIGHT = 2
 # Cap values are rounded to this fraction of the input's error (cap_value_step).
 CAP_STEP = 0.5
 
@@ -359,23 +363,34 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
 
     if max_points is None or offs[-1] <= max_points:
         return fitted(points(0, int(offs[-1])), offs, border, tol, _reaches(tol, moves), snap)
-    cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(max_points, offs[-1], max_points),
+    # two batches in flight where two threads may run (each half as large: the same
+    # temporaries): one's NumPy gathering overlaps the other's compiled fit
+    flight = FIT_FLIGHT if threads.available() > 1 else 1
+    step = max(max_points // flight, 1)
+    cuts = np.unique(np.concatenate([[0], np.searchsorted(offs, np.arange(step, offs[-1], step),
                                                           "right") - 1, [n_loops]]))
-    cuts = cuts[(cuts >= 0)]
-    pts, off, brd, base = [], [np.zeros(1, np.int64)], [], 0
-    for i0, i1 in zip(cuts[:-1], cuts[1:]):
-        if i1 <= i0:
-            continue
+    cuts = [(int(i0), int(i1)) for i0, i1 in zip(cuts[:-1], cuts[1:]) if i1 > i0 and i0 >= 0]
+
+    def batch(i0, i1):
         o0, o1 = offs[i0], offs[i1]
-        p, o, b = fitted(points(o0, o1), offs[i0 : i1 + 1] - o0, border[o0:o1],
-                             tol[o0:o1], _reaches(tol[o0:o1], moves[o0:o1]), snap)
+        out = fitted(points(o0, o1), offs[i0 : i1 + 1] - o0, border[o0:o1],
+                     tol[o0:o1], _reaches(tol[o0:o1], moves[o0:o1]), snap)
         if release:  # the batch's tolerances and moves are done with: their pages go
             release_read(tol, o0, o1)
             release_read(moves, o0, o1)
-        pts.append(p)
-        off.append(o[1:] + base)
-        brd.append(b)
-        base += int(o[-1])
+        return out
+
+    pts, off, brd, base = [], [np.zeros(1, np.int64)], [], 0
+    with threads.pool(flight) as pool:
+        pending = deque()
+        for i0, i1 in cuts:  # in order; at most ``flight`` submitted and not yet gathered
+            pending.append(pool.submit(batch, i0, i1))
+            while len(pending) >= flight or (pending and (i0, i1) == cuts[-1]):
+                p, o, b = pending.popleft().result()
+                pts.append(p)
+                off.append(o[1:] + base)
+                brd.append(b)
+                base += int(o[-1])
     return gather(pts), gather(off), gather(brd)
 
 

@@ -18,10 +18,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .. import threads
 from ..geometry.areas import polyline_areas
 from ..model import CAP_RAMP
 from ._kernels.enclose import (
-    count_rows, innermost_enclosing, innermost_enclosing_rows, loop_blocks, place_rows, sweep_enclosing,
+    count_rows, innermost_enclosing, innermost_enclosing_rows, loop_blocks, place_rows, sweep_enclosing_rows,
 )
 from ._kernels.regions import (
     label_regions_rows, label_regions_saddles, loop_levels, region_bands, region_deep, slots_of_regions,
@@ -246,7 +247,9 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
     x, y, offsets, blocks, row_start, row_order, n_rows = segment_table(iso, n_rows, xy)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
-    parent, seen = sweep_enclosing(x, y, offsets, blocks, row_start, row_order, lev_loop, c, n_rows)
+    table = (x, y, offsets, blocks, row_start, row_order)
+    runs = row_runs(row_start, n_rows, threads.available())
+    parent, seen = sweep_parents(table, lev_loop, c, runs)
     unseen = np.flatnonzero(~seen)
     cand = ranges(offsets[unseen], np.diff(offsets)[unseen])  # the points of the unseen loops
     cand = cand[~iso.border[cand] & (y[cand] != y[successors(cand, offsets)])]
@@ -258,10 +261,8 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
             0.5 * (x[qs] + x[qe]), 0.5 * (y[qs] + y[qe]), has_q.astype(np.int64),
             x, y, offsets, blocks, row_start, row_order, area, lev_loop, n_rows,
         )
-    cap_contour = innermost_enclosing_rows(
-        cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), np.full(len(cap_xy), -1, np.int64),
-        x, y, offsets, blocks, row_start, row_order, area, lev_loop, n_rows,
-    ) if c else np.full(len(cap_xy), -1, np.int64)
+    cap_contour = enclosing_rows(cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), table, area, lev_loop, n_rows, runs) \
+        if c else np.full(len(cap_xy), -1, np.int64)
     return Hierarchy(
         parent=parent.astype(np.int32),
         n_regions=m,
@@ -270,3 +271,48 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
         cap_xy=cap_xy,
         cap_value=np.asarray(cap_value, np.float64),
     )
+
+
+def row_runs(row_start: np.ndarray, n_rows: int, n: int) -> list:
+    """At most ``n`` runs of rows [k0, k1) covering 0 .. n_rows - 1, with about equal numbers
+    of segments (row_start: the segment table's row buckets)."""
+    if n <= 1 or n_rows <= 1:
+        return [(0, n_rows)]
+    total = int(row_start[n_rows])
+    cuts = np.searchsorted(row_start[: n_rows + 1], np.arange(1, n) * total / n, "left")
+    cuts = np.unique(np.clip(np.concatenate([[0], cuts, [n_rows]]), 0, n_rows))
+    return [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+def sweep_parents(table: tuple, level: np.ndarray, n_loops: int, runs: list):
+    """_kernels/enclose.py sweep_enclosing over the segment ``table`` (x, y, offsets,
+    blocks, row_start, row_order), its ``runs`` of rows (row_runs') swept on threads: a
+    loop's parent is the first run's that sees it, each run's first scanline's, so the
+    same as one sweep's (each scanline's sweep starts from an empty stack)."""
+    with threads.pool(len(runs)) as pool:
+        parts = list(pool.map(lambda r: sweep_enclosing_rows(*table, level, n_loops, *r), runs))
+    parent, seen = parts[0]
+    for p, s in parts[1:]:
+        new = s & ~seen
+        parent[new] = p[new]
+        seen |= s
+    return parent, seen
+
+
+def enclosing_rows(px, py, table: tuple, area, level, n_rows: int, runs: list) -> np.ndarray:
+    """_kernels/enclose.py innermost_enclosing_rows of the queries (px, py) (none excluded)
+    over the segment ``table`` (sweep_parents'), the queries of each run of rows (row_runs')
+    answered on a thread of their own: each query's answer is found along its own row."""
+    out = np.full(px.shape[0], -1, np.int64)
+    if len(runs) == 1:
+        runs = [(0, n_rows)]
+    row = np.clip(np.floor(py * 2.0), 0, n_rows - 1)  # enclose._row_of
+    picks = [np.flatnonzero((row >= k0) & (row < k1)) for k0, k1 in runs]
+
+    def run(q):
+        return innermost_enclosing_rows(px[q], py[q], np.full(q.shape[0], -1, np.int64), *table, area, level, n_rows)
+
+    with threads.pool(len(runs)) as pool:
+        for q, found in zip(picks, pool.map(run, picks)):
+            out[q] = found
+    return out

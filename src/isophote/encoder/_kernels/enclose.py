@@ -148,11 +148,20 @@ def sweep_enclosing(x, y, offsets, blocks, row_start, row_order, level, n_loops,
     Returns (parent (n_loops,), seen (n_loops,) bool); a loop no scanline crosses has seen
     False.
     """
+    return sweep_enclosing_rows(x, y, offsets, blocks, row_start, row_order, level, n_loops, 0, n_rows)
+
+
+@njit(cache=True, nogil=True)
+def sweep_enclosing_rows(x, y, offsets, blocks, row_start, row_order, level, n_loops, k0, k1):
+    """:func:`sweep_enclosing` over the rows k0 .. k1 - 1 alone: each row's sweep starts from
+    an empty stack, so a loop's parent is the one its first scanline in the range gives,
+    and runs of rows can be swept apart (hierarchy.sweep_parents: the first run that sees a
+    loop gives its parent, as one sweep would)."""
     parent = np.full(n_loops, -1, np.int64)
     seen = np.zeros(n_loops, np.bool_)
     stack = np.empty(n_loops + 1, np.int64)
     on_stack = np.zeros(n_loops, np.bool_)
-    for k in range(n_rows):
+    for k in range(k0, k1):
         yc = 0.5 * k + SWEEP_NUDGE
         xs, ls, _, _, n = _row_crossings(x, y, offsets, blocks, row_start, row_order, k, yc)
         order = np.argsort(xs[:n], kind="mergesort")
