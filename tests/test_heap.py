@@ -71,3 +71,38 @@ def test_arrays_wait_on_disk_but_never_in_a_tmpfs(monkeypatch, tmp_path):
     monkeypatch.setattr(spill.ArrayFile, "__init__", lambda self, x: made.append(x.shape) or real_init(self, x))
     assert dumps(isophote.encode(img, memory=1)) == kept
     assert len(made) == 6  # each channel's plane and chains went to files this time
+
+
+def test_a_pagers_arrays_lose_nothing_when_their_pages_go(monkeypatch, tmp_path):
+    """Pager (shared/spill.py): arrays on temporary files whose pages leave the process's
+    memory on release() and come back unchanged when read; release(a) touches a's map
+    alone; ordinary arrays where no file can be had, and no pager in a tmpfs."""
+    from isophote.shared import spill
+
+    monkeypatch.setattr(spill.tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(spill, "file_system", lambda path: "ext4")
+    p = spill.Pager()
+    n = 8 << 20  # 64 MiB of float64
+    before = _rss()
+    a = p.empty(n, np.float64)
+    a[:] = np.arange(n)
+    b = p.put(np.arange(1000, dtype=np.int32).reshape(10, 100))
+    assert b.shape == (10, 100) and b.dtype == np.int32 and spill._map_of(b[3:5, 1:]) is not None
+    assert spill._map_of(np.arange(3)) is None
+    grown = _rss() - before
+    assert grown > 0.9 * n * 8
+    p.release(b)  # b's map alone: a's pages stay
+    assert _rss() - before > 0.9 * n * 8
+    p.release()
+    assert _rss() - before < 0.1 * n * 8
+    assert np.array_equal(a, np.arange(n)) and np.array_equal(b.ravel(), np.arange(1000))  # nothing lost
+    assert p.mapped == n * 8 + 4000
+    p.release(np.arange(5.0))  # not on a map: nothing happens
+    assert p.empty((0, 3), np.float64).shape == (0, 3)
+    monkeypatch.setattr(spill.os, "posix_fallocate", lambda *a: (_ for _ in ()).throw(OSError(28, "full")))
+    c = p.empty(10, np.float64)  # a full disk: an ordinary array
+    assert spill._map_of(c) is None and c.shape == (10,)
+    monkeypatch.setattr(spill, "file_system", lambda path: "tmpfs")
+    with pytest.raises(OSError, match="in memory"):
+        spill.Pager()
+    assert spill.pager_or_none() is None

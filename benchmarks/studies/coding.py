@@ -78,7 +78,7 @@ def encode_at(img, quant: int, handle_shift: int = 0, anchor_grid: float = 0.0, 
 def column_values(ch) -> dict:
     """The column layout's columns as signed values (before zigzag and planes)."""
     c = ch.level.shape[0]
-    d = np.diff(isoph_layout.stored_points(ch), axis=0, prepend=np.zeros((1, 2), np.int64))
+    d = np.diff(ch.stored, axis=0, prepend=np.zeros((1, 2), np.int64))
     return {
         "level": np.diff(ch.level, prepend=0),
         "nseg": ch.nseg - 1,
@@ -86,7 +86,7 @@ def column_values(ch) -> dict:
         "points": d.ravel(),
         "cap_band": ch.cap_band,
         "cap_contour": np.diff(ch.cap_contour, prepend=-1),
-        "cap_xy": (ch.cq - isoph_layout.cap_origins(ch.q, ch.offsets, ch.cap_contour)).ravel(),
+        "cap_xy": (ch.cq - isoph_layout.cap_origins(ch.stored, ch.offsets, ch.cap_contour)).ravel(),
         "cap_value": ch.vq,
         "border": ch.border.astype(np.int64),
     }
@@ -109,7 +109,7 @@ def range_bytes(checked, g_forced=None, account=False, version=isoph.FORMAT_VERS
     total, bits = 0, np.zeros(entropy.N_MODELS + 18)
     for ch in checked:
         info = ch.info
-        pts = isoph_layout.stored_points(ch)
+        pts = ch.stored
         s_p, s_c, s_v = isoph_range.grid_shift(pts), isoph_range.grid_shift(ch.cq), isoph_range.grid_shift(ch.vq)
         pts = pts >> s_p
         g = isoph_range.anchor_shift(pts[0::3]) if g_forced is None else g_forced

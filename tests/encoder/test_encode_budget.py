@@ -130,10 +130,27 @@ def test_bytes_do_not_depend_on_the_budget(monkeypatch, preset):
     monkeypatch.setattr(strips, "march_strip", lambda *a: calls.append(1) or real(*a))
     monkeypatch.setattr(strips, "ArrayFile", lambda plane: spilled.append(plane.shape) or real_file(plane))
     monkeypatch.setattr(E, "ArrayFile", lambda chains: spilled.append(chains.dtype) or real_file(chains))
+    # the polylines on a pager's files, released in runs of a few dozen points
+    from isophote.encoder import hierarchy
+    from isophote.encoder._kernels import anchors
+    from isophote.shared import spill
+
+    monkeypatch.setattr(spill, "file_system", lambda path: "ext4")
+    monkeypatch.setattr(hierarchy, "RELEASE_POINTS", 37)
+    monkeypatch.setattr(anchors, "RELEASE_POINTS", 37)
+    paged, released = [], []
+    real_empty, real_release = spill.Pager.empty, spill.Pager.release
+    monkeypatch.setattr(spill.Pager, "empty", lambda self, shape, dtype: paged.append(np.dtype(dtype).char)
+                        or real_empty(self, shape, dtype))
+    monkeypatch.setattr(spill.Pager, "release", lambda self, *a: released.append(len(a)) or real_release(self, *a))
     small = dumps(isophote.encode(img, preset=preset, memory=1))
     assert len(calls) > 3 * 3  # several strips a channel
     # each channel's plane waited in a file for its caps, its chains beside its hierarchy
     assert spilled == [(150, 200), np.float32] * 3
+    # per channel: each strip's loops (5 arrays a part), the merged loops (5), y (d) and
+    # the row order (i); pages released far more often than arrays were made
+    assert paged.count("i") >= 3 and paged.count("d") > 3 * 4 and len(paged) > 3 * 12
+    assert released.count(0) > 3 * 20 and released.count(2) > 3 * 5
     assert small == big
     assert dumps(isophote.encode(img, preset=preset, memory="300K")) == big
 
@@ -190,9 +207,9 @@ def test_cli_memory_flag(tmp_path, capsys):
 # MB (952 on 69a3a48 in the same session, session 20); the polylines' compact form and each
 # part dropped after its last reader 596-597 MB (session 21); the caps per cap, the errors
 # a row source, the bands a byte, the plane and chains in temporary files (this budget
-# spills them) 531-532 MB (session 22). What remains is the channel's whole-image
-# polylines and bands (22 bytes a point and 4 a pixel) and the fit's and the hierarchy's
-# temporaries beside them (docs/streaming.md).
+# spills them) 531-532 MB (session 22); the polylines on mapped temporary files, their
+# pages given back run by run (sessions 23-24) 507 MB. What remains is the image's band grid
+# and labels at the caps, the returned chains and the stages' runs (docs/streaming.md).
 RSS_CHILD = r"""
 import numpy as np, isophote
 n = 2048
@@ -203,7 +220,7 @@ vi = isophote.encode(np.clip(img, 0, 255).astype(np.uint8), preset="balanced", m
 assert sum(c.points.shape[0] for c in vi.channels) > 500_000
 """
 UNBOUNDED_PEAK_MB = 1671
-BOUNDED_PEAK_MB = 1150  # 531-532 MB with the kernels cached (596-597 in session 21; 829-984 when the child compiled them)
+BOUNDED_PEAK_MB = 1150  # 507 MB with the kernels cached (531-532 in session 22; 829-984 when the child compiled them)
 
 
 def test_peak_rss_of_a_4mp_encode_stays_under_the_asserted_bound():

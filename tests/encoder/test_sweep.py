@@ -129,3 +129,35 @@ def test_runs_of_rows_on_threads_equal_one_sweep(name):
         parent, seen = sweep_parents(table, level, iso.n_loops, runs)
         assert np.array_equal(parent, want_parent) and np.array_equal(seen, want_seen), n
         assert np.array_equal(enclosing_rows(px, py, table, area, level, n_rows, runs), want_caps), n
+
+
+@pytest.mark.parametrize("name", ["camera", "noise", "rings"])
+def test_runs_of_loops_give_the_whole_passes_bits(name):
+    """The loops' areas and the regions' bounding levels found in runs of loops, with a
+    release between runs (what the encoder does when the polylines are on a Pager's files),
+    equal one pass's, to the bit; loop_runs covers every loop once."""
+    from isophote.encoder.hierarchy import _areas_in_runs, _labels, crossing_levels, loop_runs
+    from isophote.geometry.areas import polyline_areas
+
+    iso, _, _ = traced(name)
+    p = iso.points
+    xy = (p[:, 0].copy(), p[:, 1].copy())
+    labels, m = _labels(iso, preset_levels(10))
+    want_area = polyline_areas(xy, iso.offsets)
+    want_lo, want_hi = crossing_levels(iso, labels, m)
+    for points in (1, 13, 500, 10**9):
+        runs = loop_runs(iso.offsets, points)
+        assert runs[0][0] == 0 and runs[-1][1] == iso.n_loops
+        assert all(a[1] == b[0] for a, b in zip(runs[:-1], runs[1:]))
+        if points == 13:
+            assert len(runs) > 5
+        monkey = hierarchy.RELEASE_POINTS
+        hierarchy.RELEASE_POINTS = points
+        try:
+            calls = []
+            got = _areas_in_runs(xy, iso.offsets, lambda: calls.append(1))
+            lo, hi = crossing_levels(iso, labels, m, lambda: calls.append(1))
+        finally:
+            hierarchy.RELEASE_POINTS = monkey
+        assert np.array_equal(got, want_area) and len(calls) == 2 * len(runs)
+        assert np.array_equal(lo, want_lo) and np.array_equal(hi, want_hi)

@@ -134,7 +134,7 @@ def test_chord_frame_of_a_chord_is_its_length():
 
 def ref_fields(ch, info, version=4) -> dict:
     """A checked channel (isoph_layout.Checked) as the reference coder's plain fields."""
-    pts = isoph_layout.stored_points(ch) >> info.s_p
+    pts = ch.stored >> info.s_p
     chains, t = [], 0
     for n in ch.nseg.tolist():
         chains.append([tuple(p) for p in pts[t : t + 3 * n].tolist()])
@@ -178,7 +178,8 @@ def check_channel_version(c, version):
     assert level.tolist() == ref["level"] == ch.level.tolist()
     assert parent.tolist() == ref["parent"] == ch.parent.tolist()
     assert nseg.tolist() == ref["nseg"] == ch.nseg.tolist()
-    assert np.array_equal(q, ch.q) and [list(p) for chain in ref["chains"] for p in chain] == ch.q.tolist()
+    closed = isoph_layout.closed_points(ch.stored, ch.offsets)
+    assert np.array_equal(q, closed) and [list(p) for chain in ref["chains"] for p in chain] == closed.tolist()
     assert border.astype(bool).tolist() == [bool(b) for b in ref["border"]] == ch.border.tolist()
     assert cap_contour.tolist() == ref["cap_contour"] and cap_band.tolist() == ref["cap_band"]
     assert np.array_equal(cq, ch.cq) and [list(p) for p in ref["cap_xy"]] == ch.cq.tolist()
@@ -373,7 +374,7 @@ def test_parts_code_as_the_spec_says_and_decode_in_any_number_of_threads(monkeyp
     fields["part_segments"] = 6
     assert coded == R.encode_channel(fields)
     # the writer's parts side by side (range_channel) are the same coded one after another
-    pts = isoph_layout.stored_points(ch) >> info.s_p
+    pts = ch.stored >> info.s_p
     for workers in (1, 3):
         seq, _ = isoph_range.code_channel(ch.level, ch.nseg, ch.parent, pts, ch.border.astype(np.uint8), info.g,
                                           ch.cap_contour, ch.cap_band, ch.cq >> info.s_c, ch.vq >> info.s_v,
@@ -389,9 +390,10 @@ def test_parts_code_as_the_spec_says_and_decode_in_any_number_of_threads(monkeyp
     assert all(o[0] == E.OK for o in outs)
     for o in outs[1:]:
         assert all(np.array_equal(a, b) for a, b in zip(o[3:], outs[0][3:]))
-    assert np.array_equal(outs[0][6], ch.q) and outs[0][5].tolist() == ch.parent.tolist()
+    closed = isoph_layout.closed_points(ch.stored, ch.offsets)
+    assert np.array_equal(outs[0][6], closed) and outs[0][5].tolist() == ch.parent.tolist()
     ref = R.decode_channel(coded, *args[:7], info.levels.tolist(), info.base_band, 5, part_segments=6)
-    assert [list(p) for chain in ref["chains"] for p in chain] == ch.q.tolist()
+    assert [list(p) for chain in ref["chains"] for p in chain] == closed.tolist()
     # the whole file: written in parts, read back the same image
     assert isoph.loads(isoph.dumps(vi)).equals(vi)
 
@@ -442,7 +444,7 @@ def test_accounting_codes_the_same_bytes_and_counts_them(monkeypatch):
     ch = isoph_write.checked_channel(vi.channels[0])
     coded = isoph_range.range_channel(ch, 4)
     info = ch.info
-    pts = isoph_layout.stored_points(ch) >> info.s_p
+    pts = ch.stored >> info.s_p
     out, bits = E.encode_channel(ch.level, ch.nseg, ch.parent, np.ascontiguousarray(pts), ch.border.astype(np.uint8),
                                  info.g, ch.cap_contour, ch.cap_band, np.ascontiguousarray(ch.cq >> info.s_c),
                                  ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 4, True)
@@ -450,7 +452,7 @@ def test_accounting_codes_the_same_bytes_and_counts_them(monkeypatch):
     assert abs(bits.sum() - 8 * len(coded)) < 0.02 * 8 * len(coded) + 40
     _, ch, parted = _parted(monkeypatch)
     info = ch.info
-    pts = isoph_layout.stored_points(ch) >> info.s_p
+    pts = ch.stored >> info.s_p
     args = (ch.level, ch.nseg, ch.parent, pts, ch.border.astype(np.uint8), info.g, ch.cap_contour, ch.cap_band,
             ch.cq >> info.s_c, ch.vq >> info.s_v, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, 5)
     out, bits = isoph_range.code_channel(*args, account=True)

@@ -290,6 +290,42 @@ def reference_rounded(vi: VectorImage) -> VectorImage:
 # ---- round trips ---------------------------------------------------------------------------
 
 
+def test_channels_one_at_a_time_and_in_chunks_give_the_same_bytes(monkeypatch):
+    """The writer's memory bounds (stored points quantised a chunk of rows at a time, the
+    closing points left out as they come; channels checked and coded one at a time) change
+    no byte."""
+    from isophote.format.isoph import layout as isoph_layout, write as isoph_write
+
+    vi = random_image(2, "yuv+alpha")
+    want = {c: isoph.dumps(vi, compression=c) for c in ("range", "zlib")}
+    ch = vi.channels[0]
+    q = np.rint(ch.points * Q).astype(np.int64)
+    monkeypatch.setattr(isoph_write, "QUANTISE_CHUNK", 5)  # chunk edges inside and at chain ends
+    monkeypatch.setattr(isoph_write, "ONE_AT_A_TIME_POINTS", 1)
+    for c, data in want.items():
+        assert isoph.dumps(vi, compression=c) == data
+    # the writer of an image it may consume: the same bytes, made in the points' own memory
+    for c, data in want.items():
+        own = replace(vi, channels=tuple(replace(x, points=x.points.copy()) for x in vi.channels))
+        held = [own]
+        assert isoph_write.dumps_held(held, compression=c) == data and held == []
+        assert not np.array_equal(own.channels[0].points, ch.points)  # consumed: no copy was made
+    with pytest.raises(ValueError, match="exactly one"):
+        isoph_write.dumps_held([vi, vi])
+    with pytest.raises(ValueError, match="compression must be"):
+        isoph_write.dumps_held([vi], compression="gzip")
+    checked = isoph_write.checked_channel(ch)
+    keep = np.ones(q.shape[0], bool)
+    keep[ch.offsets[1:] - 1] = False
+    assert np.array_equal(checked.stored, q[keep])
+    assert np.array_equal(isoph_layout.closed_points(checked.stored, checked.offsets), q)
+    # a chain left open is still found, wherever the chunks fall
+    pts = ch.points.copy()
+    pts[ch.offsets[2] - 1] += 1.0
+    with pytest.raises(ValueError, match="contour 1 is not closed"):
+        isoph.dumps(replace(vi, channels=(replace(ch, points=pts),) + vi.channels[1:]))
+
+
 @pytest.mark.parametrize("compression", ["range", "lzma", "zlib", "none"])
 @pytest.mark.parametrize("layout", list(LAYOUTS))
 def test_round_trip_exact(layout, compression):
@@ -384,6 +420,11 @@ def test_repetitive_payload_is_stored_not_a_bomb():
     b = isoph.dumps(vi)
     assert isoph.read_info(b)["compression"] == "none"
     assert isoph.loads(b).equals(vi)
+    # the range coder shifted the stored points (in the points' own memory) before the
+    # ratio sent the file stored: shifted back, the same bytes
+    from isophote.format.isoph.write import dumps_held
+
+    assert dumps_held([replace(vi, channels=(replace(ch, points=ch.points.copy()),))]) == b
 
 
 def test_deep_nesting_and_reverse_order_parents():

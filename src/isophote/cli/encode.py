@@ -112,6 +112,7 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     from ..encoder import encode_pixels_held
     from ..format.isoph import dumps
+    from ..format.isoph.write import dumps_held
     from ..imageio import read_image
     from ..provenance import made_meta
 
@@ -143,11 +144,14 @@ def run(args) -> int:
     vi = encode_pixels_held(held, raster.depth, opts)
     vi = replace(vi, meta=made_meta(given, "<stdin>" if args.input == "-" else args.input, raster, (h, w)))
     job.progress(f"writing {shown(args.output)}")
-    data = dumps(vi)
+    counts = _counts(vi)
+    held = [vi]  # the writer makes the file's integers in the points' own memory
+    del vi
+    data = dumps_held(held)
     write_output(args.output, data)
     seconds = job.seconds
     ratio = len(data) / in_bytes if in_bytes else float("inf")
-    job.done(f"{shown(args.output)}: {w}x{h}, contours/segments {_counts(vi)}; {len(data):,} bytes, "
+    job.done(f"{shown(args.output)}: {w}x{h}, contours/segments {counts}; {len(data):,} bytes, "
              f"{ratio:.2f} x the input's {in_bytes:,}; {seconds:.1f} s", timed=False)
     return 0
 

@@ -19,7 +19,7 @@ from ._kernels.anchors import joint_moves, joint_reach
 from ._kernels.rotate import rotate_chains
 from ..shared.grid import QUANT
 from ..shared.heap import release_read
-from ..shared.spill import ArrayFile
+from ..shared.spill import ArrayFile, pager_or_none
 from ._kernels.fit import QUANT as FIT_QUANT
 from .. import threads
 from ..colour import rgb_to_yuv
@@ -33,7 +33,7 @@ from .hierarchy import build_hierarchy, build_hierarchy_held
 from .isolines import Isolines, points_of, ranges
 from .budget import (
     fit_batch_points, move_candidates, overlap_fit_and_hierarchy, parse_memory, return_freed_memory, spill_plane,
-    strip_rows,
+    strip_rows, trim_heap,
 )
 from .strips import strip_isolines
 from .levels import channel_levels
@@ -206,12 +206,17 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
     memory = parse_memory(opts.memory)
     # per-pixel eps (a row source: each strip computes its rows), pruning (§3.1, §6)
     plane, eps = prepare_plane_rows(name, plane, eps, levels, opts)
-    # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
-    iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS))
     spill = spill_plane(plane.nbytes, memory)
+    # with spilling, the polylines' per-point arrays are on temporary files, their pages
+    # released between the passes over them (shared/spill.py Pager; the same values)
+    pager = pager_or_none() if spill else None
+    # map_pixels and find_isolines, strip by strip (strips sized by the budget; same loops)
+    iso = strip_isolines(plane, eps, levels, opts, strip_rows(memory, plane.shape[1]), threads.available(STRIP_WORKERS),
+                         pager)
     del plane, eps
     contour_level, base_band = iso.level.astype(np.int32), iso.base_band
     q = float(QUANT)
+    on_grid = False  # whether the chains came on the file's grid, rotated and made pixels
     if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
             tree = side.submit(build_hierarchy, iso, levels)
@@ -227,15 +232,25 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
         # where they fit (8 bytes a point less beside the hierarchy; the same values)
         compact = size * FIT_MARGIN * q < 2**24
         points, offsets, border = fit_first(held, opts.snap, fit_batch_points(memory), q,
-                                            np.float32 if compact else np.float64, move_candidates(memory))
+                                            np.float32 if compact else np.float64, move_candidates(memory), pager)
         chains = _aside(points, spill)  # the hierarchy does not read them
         del points
-        tree = build_hierarchy_held(held, levels)
+        trim_heap()  # the fit's freed batches (in its threads' arenas) go back before the hierarchy
+        tree = build_hierarchy_held(held, levels, pager)
         held.clear()
+        trim_heap()
+        on_grid = True
         points = chains() if callable(chains) else chains
         del chains
-        points = points.astype(np.float64) / q
-    points, border = start_at_first_joint(points, offsets, border)
+        # rotated on the file's grid (the same order as in pixels: q is a power of two),
+        # then made pixels a chunk at a time (the values of points.astype(float64) / q)
+        points, border = start_at_first_joint(points, offsets, border)
+        points = _grid_to_pixels(points, q)
+    if not on_grid:
+        points, border = start_at_first_joint(points, offsets, border)
+    # what the channel's stages freed in the threads' arenas goes back now, not beside the
+    # next channel or the file's writing (the mosaic at `high`: 250 MiB; shared/heap.py)
+    trim_heap()
     return Channel(
         name=name,
         levels=levels,
@@ -250,6 +265,14 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
         cap_value=np.round(tree.cap_value / cap_step) * cap_step,
         base_band=base_band,
     )
+
+
+def _grid_to_pixels(points: np.ndarray, q: float) -> np.ndarray:
+    """points.astype(float64) / q, a chunk of CHUNK rows at a time (no whole temporaries)."""
+    out = np.empty(points.shape, np.float64)
+    for a in range(0, points.shape[0], CHUNK):
+        out[a : a + CHUNK] = points[a : a + CHUNK].astype(np.float64) / q
+    return out
 
 
 def _aside(a: np.ndarray, spill: bool):
@@ -296,20 +319,23 @@ def fit_isolines(iso: Isolines, snap: float, max_points: int | None = None):
 
 
 def fit_first(held: list, snap: float, max_points: int | None = None, grid=None, grid_type=np.float64,
-              max_candidates: int | None = None):
+              max_candidates: int | None = None, pager=None):
     """fit_isolines of the one Isolines in ``held`` (no one else may hold it), which is put
     back without its tolerances (made the fitter's in place; the hierarchy, which comes
     next, does not read them): the hierarchy's temporaries then sit beside 8 bytes a point
     less than the fit's did (same result; with ``grid``, the points as fit_loops gives
     them on that grid; ``max_candidates``: the joint moves' candidates listed at a time,
-    _kernels/anchors.py joint_moves)."""
+    _kernels/anchors.py joint_moves; ``pager``: the Pager whose files hold the Isolines'
+    per-point arrays, released between the passes)."""
     iso = held.pop()
-    tol = fit_tolerances(iso.tol, iso.tol)
-    moves = _joint_moves(iso, tol, max_candidates)
+    release = None if pager is None else pager.release
+    tol = fit_tolerances(iso.tol, iso.tol, release)
+    moves = _joint_moves(iso, tol, max_candidates, release)
     held.append(replace(iso, tol=None))
     points, offsets, border = point_rows(iso), iso.offsets, iso.border
     del iso
-    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type, release=True)
+    return fit_loops(points, offsets, border, tol, moves, snap, max_points, grid, grid_type, release=True,
+                     pager=pager)
 
 
 def point_rows(iso: Isolines):
@@ -322,17 +348,20 @@ def point_rows(iso: Isolines):
 CHUNK = 1 << 20  # points an elementwise step over a whole channel takes at a time (no temporaries)
 
 
-def fit_tolerances(tol: np.ndarray, out: np.ndarray) -> np.ndarray:
+def fit_tolerances(tol: np.ndarray, out: np.ndarray, release=None) -> np.ndarray:
     """The fitter's tolerances into ``out`` (which may be ``tol``): the ribbon less what the
-    file's rounding may move (_ROUNDING), at least a quarter of it."""
+    file's rounding may move (_ROUNDING), at least a quarter of it (``release``, where
+    given, called after each chunk: a Pager's, for arrays on its files)."""
     for a in range(0, tol.shape[0], CHUNK):
         t = tol[a : a + CHUNK]
         np.maximum(t - _ROUNDING, 0.25 * t, out=out[a : a + CHUNK])
+        if release is not None:
+            release(tol, out)
     return out
 
 
 def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | None = None, grid=None,
-              grid_type=np.float64, release=False):
+              grid_type=np.float64, release=False, pager=None):
     """Fit the loops of an Isolines (a row source of its points, point_rows'; its offsets
     and border flags) given the fitter's
     tolerances (fit_tolerances) and which joints may move (_joint_moves; their reaches,
@@ -347,7 +376,8 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
     of type grid_type (float32 holds them exactly while they stay under 2**24: FIT_MARGIN).
     With ``release`` (for a caller that drops tol and moves afterwards), each batch's
     tolerances and moves give their memory pages back once it is fitted (shared/heap.py
-    release_read): 9 bytes a point go through the fit rather than at its end."""
+    release_read): 9 bytes a point go through the fit rather than at its end; with a
+    ``pager``, the pages of every array on its files go too)."""
     n_loops = offs.shape[0] - 1
     if n_loops == 0:
         return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, bool)
@@ -378,6 +408,8 @@ def fit_loops(points, offs, border, tol, moves, snap: float, max_points: int | N
         if release:  # the batch's tolerances and moves are done with: their pages go
             release_read(tol, o0, o1)
             release_read(moves, o0, o1)
+        if pager is not None:
+            pager.release()
         return out
 
     pts, off, brd, base = [], [np.zeros(1, np.int64)], [], 0
@@ -522,10 +554,11 @@ def _joint_reach(iso: Isolines, tol: np.ndarray) -> np.ndarray:
     return joint_reach(*_anchor_args(iso, tol), workers=threads.available())
 
 
-def _joint_moves(iso: Isolines, tol: np.ndarray, max_candidates: int | None = None) -> np.ndarray:
+def _joint_moves(iso: Isolines, tol: np.ndarray, max_candidates: int | None = None, release=None) -> np.ndarray:
     """Which crossings _joint_reach lets move (a byte a crossing; the same whatever the
-    threads and max_candidates)."""
-    return joint_moves(*_anchor_args(iso, tol), workers=threads.available(), max_candidates=max_candidates)
+    threads, max_candidates and release)."""
+    return joint_moves(*_anchor_args(iso, tol), workers=threads.available(), max_candidates=max_candidates,
+                       release=release)
 
 
 def _anchor_args(iso: Isolines, tol: np.ndarray) -> tuple:
@@ -542,7 +575,8 @@ def start_at_first_joint(points: np.ndarray, offsets: np.ndarray, border: np.nda
     One pass a chain (_kernels/rotate.py; its NumPy twin rotate_ref.py)."""
     if offsets.shape[0] <= 1:
         return points, border
-    return rotate_chains(np.ascontiguousarray(points, np.float64), np.ascontiguousarray(offsets, np.int64),
+    kind = points.dtype if points.dtype in (np.float32, np.float64) else np.float64  # float32: grid multiples
+    return rotate_chains(np.ascontiguousarray(points, kind), np.ascontiguousarray(offsets, np.int64),
                          np.ascontiguousarray(border))
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import threads
-from ..geometry.areas import polyline_areas
+from ..geometry.areas import polyline_areas, polyline_areas_range
 from ..model import CAP_RAMP
 from ._kernels.enclose import (
     count_rows, innermost_enclosing, innermost_enclosing_rows, loop_blocks, place_rows, sweep_enclosing_rows,
@@ -64,7 +64,7 @@ def _cap_fit(num, den, has_edge, rows, labels, L):
     return np.clip(out, 0.0, 255.0)
 
 
-def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
+def segment_table(iso: Isolines, n_rows: int | None = None, xy=None, pager=None):
     """Segments as (x, y, offsets, blocks) arrays and their bucketing by half-pixel grid
     row: segment s runs from point s, (x[s], y[s]), to the next point of its loop (its
     loop's first after its last: successors; loop i is points offsets[i] .. offsets[i + 1]
@@ -75,7 +75,8 @@ def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
     x and y are views of the points (or the caller's); the row order is int32 (a channel's
     points are far below 2**31): 4 bytes a point in all. The rows are bucketed as
     bucket_rows does (a stable counting sort), found twice a chunk of ROW_CHUNK segments at
-    a time rather than held (4 bytes a point less at the table's peak)."""
+    a time rather than held (4 bytes a point less at the table's peak). With a ``pager``,
+    the row order is on its files, and its pages go after each chunk."""
     if xy is None:
         p = iso.points
         xy = p[:, 0], p[:, 1]
@@ -95,11 +96,15 @@ def segment_table(iso: Isolines, n_rows: int | None = None, xy=None):
     row_start = np.zeros(n_rows + 1, np.int64)
     for a in range(0, n, ROW_CHUNK):
         count_rows(rows(a), row_start)
+        if pager is not None:
+            pager.release()
     np.cumsum(row_start, out=row_start)
     fill = row_start[:-1].copy()
-    row_order = np.empty(n, np.int32)
+    row_order = np.empty(n, np.int32) if pager is None else pager.empty(n, np.int32)
     for a in range(0, n, ROW_CHUNK):
         place_rows(rows(a), a, fill, row_order)
+        if pager is not None:
+            pager.release()
     return x, y, offsets, loop_blocks(offsets), row_start, row_order, n_rows
 
 
@@ -126,10 +131,37 @@ def successors_of_range(a: int, b: int, offsets: np.ndarray) -> np.ndarray:
 ROW_CHUNK = 1 << 20  # segments segment_table rows at a time (bounds its temporaries)
 
 
-def crossing_levels(iso: Isolines, labels: np.ndarray, m: int):
+def crossing_levels(iso: Isolines, labels: np.ndarray, m: int, release=None):
     """The lowest and highest level of the isoline (not border) crossings that bound each
-    region (_kernels/regions.py loop_levels, loop by loop)."""
-    return loop_levels(labels, iso.band, iso.step, iso.below, iso.border, iso.offsets, iso.level, m)
+    region (_kernels/regions.py loop_levels, loop by loop). With ``release`` (a Pager's),
+    runs of loops of about RELEASE_POINTS points, release() called after each (the same
+    levels: the lowest and highest of the runs')."""
+    args = (labels, iso.band, iso.step, iso.below, iso.border)
+    if release is None:
+        return loop_levels(*args, iso.offsets, iso.level, m)
+    lo = hi = None
+    for i0, i1 in loop_runs(iso.offsets, RELEASE_POINTS):
+        a, b = loop_levels(*args, iso.offsets[i0 : i1 + 1], iso.level[i0:i1], m)
+        release()
+        lo, hi = (a, b) if lo is None else (np.minimum(lo, a, out=lo), np.maximum(hi, b, out=hi))
+        del a, b
+    return lo, hi
+
+
+# Points a run of loops holds where the Isolines' per-point arrays are on a Pager's files
+# and released between runs (crossing_levels, _enclosing).
+RELEASE_POINTS = 1 << 22
+
+
+def loop_runs(offsets: np.ndarray, points: int) -> list:
+    """Runs [i0, i1) of consecutive loops of about ``points`` points each (at least one
+    loop a run; offsets: the loops' offsets), covering every loop."""
+    n_loops = offsets.shape[0] - 1
+    if n_loops == 0:
+        return []
+    cuts = np.searchsorted(offsets, np.arange(points, int(offsets[-1]), points), "left")
+    cuts = np.unique(np.clip(np.concatenate([[0], cuts, [n_loops]]), 0, n_loops))
+    return [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
 
 
 def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
@@ -147,17 +179,20 @@ def build_hierarchy(iso: Isolines, levels: np.ndarray) -> Hierarchy:
     return _enclosing(iso, (p[:, 0], p[:, 1]), *_caps(iso, levels, [labels], m, bounds, [iso.band]))
 
 
-def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
+def build_hierarchy_held(held: list, levels: np.ndarray, pager=None) -> Hierarchy:
     """build_hierarchy of the one Isolines in ``held`` (no one else may hold it), which is
     put back with its points, offsets, levels and border flags alone once the caps are
     fitted. The saddle joins go once the regions' bounding levels are found, the bands
     once the candidate caps' bands are read, both before the caps' distances and sums; the
     values' row source (the plane it computes them from) once the caps are fitted; then the
     points are made from their compact form (x in its own memory) before the parents'
-    segment table."""
+    segment table. With a ``pager`` (shared/spill.py Pager: the Isolines' per-point arrays
+    on its files), y and the segment table's row order go on its files too, and the pages
+    go between the runs of loops and rows (the same hierarchy)."""
     iso = held.pop()
+    release = None if pager is None else pager.release
     labels, m = _labels(iso, levels)
-    bounds = list(crossing_levels(iso, labels, m))
+    bounds = list(crossing_levels(iso, labels, m, release))
     iso = replace(iso, saddles=None)
     lab = [labels]
     del labels
@@ -168,10 +203,10 @@ def build_hierarchy_held(held: list, levels: np.ndarray) -> Hierarchy:
     n_rows = max(hp - 3, 1)
     iso = replace(iso, values=None)  # the plane goes
     # the points' x and y (x in along's memory), the compact form's samples going with them
-    xy = xy_in_place(iso.along, iso.below, iso.step, wp, release=True)
+    xy = xy_in_place(iso.along, iso.below, iso.step, wp, release=True, pager=pager)
     held.append(replace(iso, along=None, below=None, step=None))
     del iso
-    return _enclosing(held[0], xy, *caps, n_rows=n_rows)
+    return _enclosing(held[0], xy, *caps, n_rows=n_rows, pager=pager)
 
 
 def _labels(iso: Isolines, levels: np.ndarray):
@@ -237,19 +272,23 @@ def _caps(iso: Isolines, levels: np.ndarray, lab: list, m: int, bounds: list, ba
     return m, np.asarray(cap_band, np.int32), cap_xy, np.asarray(cap_value, np.float64)
 
 
-def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -> Hierarchy:
+def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None, pager=None) -> Hierarchy:
     """The parents of the loops and the caps' enclosing contours, from the loops' geometry
     (the caps' regions labelled first: the region labels and the segment table are not held
-    at once)."""
+    at once). With a ``pager``, the pages of its files go between runs of loops and of rows."""
     c = iso.n_loops
     lev_loop = iso.level.astype(np.int64)
-    area = polyline_areas(xy, iso.offsets)
-    x, y, offsets, blocks, row_start, row_order, n_rows = segment_table(iso, n_rows, xy)
+    release = None if pager is None else pager.release
+    area = polyline_areas(xy, iso.offsets) if pager is None else _areas_in_runs(xy, iso.offsets, release)
+    x, y, offsets, blocks, row_start, row_order, n_rows = segment_table(iso, n_rows, xy, pager)
     # parents: one sweep along every half-pixel row (linear); the rare loop no scanline
     # crosses asks along a ray from the midpoint of one of its segments instead
     table = (x, y, offsets, blocks, row_start, row_order)
-    runs = row_runs(row_start, n_rows, threads.available())
-    parent, seen = sweep_parents(table, lev_loop, c, runs)
+    n_runs = threads.available()
+    if pager is not None:  # runs of rows of about RELEASE_POINTS segments, threads' runs at a time
+        n_runs = max(n_runs, -(-int(row_start[-1]) // RELEASE_POINTS))
+    runs = row_runs(row_start, n_rows, n_runs)
+    parent, seen = sweep_parents(table, lev_loop, c, runs, release)
     unseen = np.flatnonzero(~seen)
     cand = ranges(offsets[unseen], np.diff(offsets)[unseen])  # the points of the unseen loops
     cand = cand[~iso.border[cand] & (y[cand] != y[successors(cand, offsets)])]
@@ -261,8 +300,8 @@ def _enclosing(iso: Isolines, xy, m, cap_band, cap_xy, cap_value, n_rows=None) -
             0.5 * (x[qs] + x[qe]), 0.5 * (y[qs] + y[qe]), has_q.astype(np.int64),
             x, y, offsets, blocks, row_start, row_order, area, lev_loop, n_rows,
         )
-    cap_contour = enclosing_rows(cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), table, area, lev_loop, n_rows, runs) \
-        if c else np.full(len(cap_xy), -1, np.int64)
+    cap_contour = enclosing_rows(cap_xy[:, 0].copy(), cap_xy[:, 1].copy(), table, area, lev_loop, n_rows, runs,
+                                 release) if c else np.full(len(cap_xy), -1, np.int64)
     return Hierarchy(
         parent=parent.astype(np.int32),
         n_regions=m,
@@ -284,25 +323,41 @@ def row_runs(row_start: np.ndarray, n_rows: int, n: int) -> list:
     return [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
 
 
-def sweep_parents(table: tuple, level: np.ndarray, n_loops: int, runs: list):
+def sweep_parents(table: tuple, level: np.ndarray, n_loops: int, runs: list, release=None):
     """_kernels/enclose.py sweep_enclosing over the segment ``table`` (x, y, offsets,
-    blocks, row_start, row_order), its ``runs`` of rows (row_runs') swept on threads: a
-    loop's parent is the first run's that sees it, each run's first scanline's, so the
+    blocks, row_start, row_order), its ``runs`` of rows (row_runs') swept on the threads,
+    as many at a time as there are threads (``release``, where given, called after each):
+    a loop's parent is the first run's that sees it, each run's first scanline's, so the
     same as one sweep's (each scanline's sweep starts from an empty stack)."""
-    with threads.pool(len(runs)) as pool:
-        parts = list(pool.map(lambda r: sweep_enclosing_rows(*table, level, n_loops, *r), runs))
-    parent, seen = parts[0]
-    for p, s in parts[1:]:
-        new = s & ~seen
-        parent[new] = p[new]
-        seen |= s
+    parent = seen = None
+    for wave in _waves(runs):
+        with threads.pool(len(wave)) as pool:
+            parts = list(pool.map(lambda r: sweep_enclosing_rows(*table, level, n_loops, *r), wave))
+        if release is not None:
+            release()
+        for p, s in parts:
+            if parent is None:
+                parent, seen = p, s
+                continue
+            new = s & ~seen
+            parent[new] = p[new]
+            seen |= s
+        del parts
     return parent, seen
 
 
-def enclosing_rows(px, py, table: tuple, area, level, n_rows: int, runs: list) -> np.ndarray:
+def _waves(runs: list) -> list:
+    """The runs, as many at a time as there are threads."""
+    n = threads.available()
+    return [runs[i : i + n] for i in range(0, len(runs), n)]
+
+
+def enclosing_rows(px, py, table: tuple, area, level, n_rows: int, runs: list, release=None) -> np.ndarray:
     """_kernels/enclose.py innermost_enclosing_rows of the queries (px, py) (none excluded)
     over the segment ``table`` (sweep_parents'), the queries of each run of rows (row_runs')
-    answered on a thread of their own: each query's answer is found along its own row."""
+    answered on a thread of their own, as many runs at a time as there are threads
+    (``release``, where given, called after each): each query's answer is found along its
+    own row."""
     out = np.full(px.shape[0], -1, np.int64)
     if len(runs) == 1:
         runs = [(0, n_rows)]
@@ -312,7 +367,23 @@ def enclosing_rows(px, py, table: tuple, area, level, n_rows: int, runs: list) -
     def run(q):
         return innermost_enclosing_rows(px[q], py[q], np.full(q.shape[0], -1, np.int64), *table, area, level, n_rows)
 
-    with threads.pool(len(runs)) as pool:
-        for q, found in zip(picks, pool.map(run, picks)):
-            out[q] = found
+    for wave in _waves(picks):
+        with threads.pool(len(wave)) as pool:
+            for q, found in zip(wave, pool.map(run, wave)):
+                out[q] = found
+        if release is not None:
+            release()
+    return out
+
+
+def _areas_in_runs(xy, offsets: np.ndarray, release) -> np.ndarray:
+    """geometry/areas.py polyline_areas in runs of loops (loop_runs'), release() after each:
+    the running sum carried from run to run, so the same bits."""
+    out = np.empty(offsets.shape[0] - 1)
+    x, y = xy
+    offsets = np.ascontiguousarray(offsets, np.int64)
+    total = 0.0
+    for i0, i1 in loop_runs(offsets, RELEASE_POINTS):
+        total = polyline_areas_range(x, y, offsets, out, i0, i1, total)
+        release()
     return out

@@ -133,18 +133,23 @@ def ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     return np.repeat(starts - before, lengths) + np.arange(total, dtype=np.int64)
 
 
-def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int, release: bool = False):
+def xy_in_place(along: np.ndarray, below: np.ndarray, step: np.ndarray, wp: int, release: bool = False,
+                pager=None):
     """(x, y): points_of's columns, y a new array and x made in ``along``'s own memory (which
     it consumes): 8 bytes a point beside the compact form rather than 16. With ``release``
     (for a caller that drops below and step afterwards) their pages go back chunk by chunk
-    as y is made (shared/heap.py release_read): y's 8 bytes a point come as their 5 go."""
-    y = np.empty_like(along)
+    as y is made (shared/heap.py release_read): y's 8 bytes a point come as their 5 go.
+    With a ``pager`` (shared/spill.py Pager), y is on its files and the pages of every
+    array on them go after each chunk."""
+    y = np.empty_like(along) if pager is None else pager.empty(along.shape, along.dtype)
     for a in range(0, along.shape[0], POINTS_CHUNK):
         b = min(a + POINTS_CHUNK, along.shape[0])
         along[a:b], y[a:b] = _xy_rows(below[a:b], step[a:b], along[a:b], wp)
         if release:
             release_read(below, a, b)
             release_read(step, a, b)
+        if pager is not None:
+            pager.release()
     return along, y
 
 

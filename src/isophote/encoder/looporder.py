@@ -12,11 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 
-def merge_loops(parts) -> dict:
+def merge_loops(parts, pager=None) -> dict:
     """The loops of all strips in order of their smallest start key (each part brings its
     loops' keys, "keys"), field by field: each part's points are scattered to their places
     in the output and dropped, so the merge holds the parts' results, one output field and
-    one part's destinations at a time."""
+    one part's destinations at a time. With a ``pager`` (shared/spill.py Pager) the output
+    fields are on its files, and the pages each part's scatter touched go after it."""
     keys = np.concatenate([p.pop("keys") for p in parts])
     order = np.argsort(keys, kind="stable").astype(np.int32)  # a channel's loops: far below 2**31
     del keys
@@ -30,12 +31,16 @@ def merge_loops(parts) -> dict:
     first = np.cumsum([0] + [p["offsets"].shape[0] - 1 for p in parts])
     for name in ("along", "tol", "below", "step", "border"):
         sample = parts[0][name]
-        dest = np.empty((n_out,) + sample.shape[1:], sample.dtype)
+        shape = (n_out,) + sample.shape[1:]
+        dest = np.empty(shape, sample.dtype) if pager is None else pager.empty(shape, sample.dtype)
         for k, p in enumerate(parts):
             loops = slice(first[k], first[k + 1])
             n = lengths[loops]
             at = np.repeat(offsets[:-1][rank[loops]] - p["offsets"][:-1], n) + np.arange(int(p["offsets"][-1]))
-            dest[at] = p.pop(name)
-            del at
+            src = p.pop(name)
+            dest[at] = src
+            if pager is not None:
+                pager.release(dest, src)
+            del at, src
         out[name] = dest
     return out

@@ -236,11 +236,21 @@ def _closed_part(closed: list) -> dict | None:
     return part
 
 
-def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Isolines:
+def _paged(part: dict, pager) -> dict:
+    """A part's per-point arrays moved to the pager's files (none: as they are)."""
+    if pager is not None:
+        for name in FIELDS:
+            part[name] = pager.put(part[name])
+    return part
+
+
+def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1, pager=None) -> Isolines:
     """The isolines of the channel ``plane`` (its sample errors ``eps``: a float, a plane or
     a row source of one, error_source),
     marched in strips of ``rows`` cell rows of the padded grid, ``workers`` strips at a
-    time: the Isolines of encoder.isolines.find_isolines on map_pixels' grid, to the bit."""
+    time: the Isolines of encoder.isolines.find_isolines on map_pixels' grid, to the bit.
+    With a ``pager`` (shared/spill.py Pager), each strip's loops wait on its files until
+    the merge, and the loops' per-point arrays are made there (the same values)."""
     levels = np.ascontiguousarray(levels, np.float64)
     v = np.ascontiguousarray(plane, np.float64)
     e = error_source(eps, v.shape)
@@ -265,12 +275,12 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
                 pending.append(pool.submit(_march, v, e, levels, opts, hp, wp, *b, band))
             frame.extend(frame_levels.tolist())
             if loops["level"].shape[0]:
-                parts.append(loops)
+                parts.append(_paged(loops, pager))
             closed = []
             carried = _join(carried, pieces, closed, frame)
             part = _closed_part(closed)
             if part is not None:
-                parts.append(part)
+                parts.append(_paged(part, pager))
             del loops, pieces, closed, part
             trim_heap()  # the strip's freed results go back (encoder/budget.py)
     if carried:
@@ -284,6 +294,6 @@ def strip_isolines(plane, eps, levels, opts, rows: int, workers: int = 1) -> Iso
                       step=np.zeros(0, np.int8), tol=np.zeros(0), level=np.zeros(0, np.int32),
                       offsets=np.zeros(1, np.int64))
     else:
-        merged = merge_loops(parts)
+        merged = merge_loops(parts, pager)
     return Isolines(band=band, values=GridRows(v, opts, hp, wp), base_band=base,
                     saddles=np.concatenate(saddles) if saddles else np.zeros((0, 2), np.int64), **merged)

@@ -96,8 +96,14 @@ def polyline_areas(points, offsets: np.ndarray) -> np.ndarray:
 
 @njit(cache=True, nogil=True)
 def _polyline_areas(x, y, offsets, out):
-    s = 0.0
-    for k in range(out.shape[0]):
+    polyline_areas_range(x, y, offsets, out, 0, out.shape[0], 0.0)
+
+
+@njit(cache=True, nogil=True)
+def polyline_areas_range(x, y, offsets, out, k0, k1, s):
+    """_polyline_areas for loops k0 .. k1 - 1 alone, the running sum ``s`` carried in from
+    the loops before and returned (runs of loops give the whole pass's bits)."""
+    for k in range(k0, k1):
         a = offsets[k]
         b = offsets[k + 1]
         before = s if a > 0 else 0.0
@@ -106,3 +112,4 @@ def _polyline_areas(x, y, offsets, out):
             c = x[i] * y[j] - x[j] * y[i]
             s = c if i == 0 else s + c
         out[k] = 0.5 * (s - before)
+    return s

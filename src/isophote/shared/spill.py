@@ -65,3 +65,84 @@ class ArrayFile:
         out = self(0, self.shape[0])
         self.file.close()
         return out
+
+
+class Pager:
+    """Arrays whose memory is a temporary file's pages, mapped (MAP_SHARED): a stage that
+    reads or writes a large array in passes calls release() between them, and the pages it
+    touched go from the process's memory to the page cache (the system's, which writes
+    them to the file and evicts them as it needs): release() loses nothing, unlike
+    heap.release_read on ordinary memory. Each array has a file of its own, unlinked at
+    once, so its disk space goes with the array.
+
+    Raises OSError where no temporary file can be made or where the temporary directory is
+    in memory (a tmpfs: the pages would be memory again). Where a file cannot be made or
+    given its size later (a full disk), empty() gives an ordinary array instead: the same
+    values, only held in memory.
+    """
+
+    def __init__(self):
+        where = tempfile.gettempdir()
+        if file_system(where) in IN_MEMORY:
+            raise OSError(f"the temporary directory {where} is in memory")
+        self._maps = []  # weak references: a map goes when the last array on it does
+        self.mapped = 0  # bytes mapped so far (what the files took on disk, at most)
+
+    def empty(self, shape, dtype) -> np.ndarray:
+        """An uninitialised array of ``shape`` and ``dtype`` on a file of its own."""
+        import mmap
+        import weakref
+
+        dtype = np.dtype(dtype)
+        shape = tuple(int(s) for s in np.atleast_1d(shape))
+        count = int(np.prod(shape, dtype=np.int64))
+        if count == 0:
+            return np.empty(shape, dtype)
+        nbytes = count * dtype.itemsize
+        try:
+            with tempfile.TemporaryFile(prefix="isophote-") as f:
+                os.posix_fallocate(f.fileno(), 0, nbytes)  # its blocks now: a full disk raises here
+                m = mmap.mmap(f.fileno(), nbytes)  # the map keeps the file (unlinked) open
+        except OSError:
+            return np.empty(shape, dtype)
+        if len(self._maps) % 256 == 255:  # the references of maps gone, now and then
+            self._maps = [r for r in self._maps if r() is not None]
+        self._maps.append(weakref.ref(m))
+        self.mapped += nbytes
+        return np.frombuffer(m, dtype, count).reshape(shape)
+
+    def put(self, a: np.ndarray) -> np.ndarray:
+        """A copy of ``a`` on a file of its own, its pages released once written."""
+        out = self.empty(a.shape, a.dtype)
+        if out.size:
+            out[...] = a
+            self.release(out)
+        return out
+
+    def release(self, *arrays) -> None:
+        """The pages of the maps under ``arrays`` (none given: every live map) out of the
+        process's memory (madvise MADV_DONTNEED on a shared file mapping: the data stays in
+        the file and the page cache). Arrays on no map of a pager are left as they are."""
+        import mmap
+
+        maps = [r() for r in self._maps] if not arrays else [_map_of(a) for a in arrays]
+        for m in maps:
+            if m is not None:
+                m.madvise(mmap.MADV_DONTNEED)
+
+
+def _map_of(a):
+    """The mmap under array ``a`` (a view of a Pager's array), or None."""
+    import mmap
+
+    while a is not None and not isinstance(a, mmap.mmap):
+        a = a.obj if isinstance(a, memoryview) else getattr(a, "base", None)
+    return a
+
+
+def pager_or_none():
+    """A Pager, or None where none can be made (the caller keeps ordinary arrays)."""
+    try:
+        return Pager()
+    except OSError:
+        return None

@@ -80,8 +80,12 @@ def _candidate(along, below, step, band, lev, k, wp, hp, frac, tol):
     return -1, -1
 
 
+# Points a run of loops holds where the inputs' pages are released between runs (joint_moves).
+RELEASE_POINTS = 1 << 22
+
+
 def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1,
-                max_candidates=None):
+                max_candidates=None, release=None):
     """(N,) bool: the crossings that may move (joint_reach's, a byte a crossing: the encoder
     holds this and makes the reaches batch by batch).
 
@@ -98,7 +102,10 @@ def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, ba
     notes each loop's first and last band: 8 bytes a loop). ``workers`` threads list the
     candidates of consecutive runs of loops (each run's after the runs before it in each
     band: the same lists) and decide runs of bands (a crossing is a candidate at one sample alone): the
-    same result for any count and any max_candidates."""
+    same result for any count and any max_candidates. With ``release`` (a callable: the
+    encoder's Pager.release, for inputs on its files), the loops are counted and listed in
+    runs of at most RELEASE_POINTS points, ``workers`` runs at a time, and release() is
+    called after each wave and each decided run of bands (the same lists)."""
     n = along.shape[0]
     hp = band.shape[0] // wp
     n_bands = (hp + band_rows - 1) // band_rows
@@ -108,13 +115,20 @@ def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, ba
         return moves
     args = (along, below, step, band, offsets, loop_level, tol, wp, float(frac), int(band_rows))
     workers = max(1, min(int(workers), n_loops))
-    cuts = np.unique(np.concatenate([[0], np.searchsorted(offsets, np.linspace(0, n, workers + 1)[1:-1]),
+    n_runs = workers if release is None else max(workers, -(-n // RELEASE_POINTS))
+    cuts = np.unique(np.concatenate([[0], np.searchsorted(offsets, np.linspace(0, n, n_runs + 1)[1:-1]),
                                      [n_loops]]))
     runs = list(zip(cuts[:-1], cuts[1:]))
     counts = np.zeros((len(runs), n_bands), np.int64)
     span = np.empty((n_loops, 2), np.int32)  # each loop's first and last band of candidates
-    _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], counts[i], _NO_CAND, False, 0, n_bands, span)
-               for i in range(len(runs))])
+
+    def waves(job):  # the runs, ``workers`` at a time, released after each wave
+        for w in range(0, len(runs), workers):
+            _threaded([lambda i=i: job(i) for i in range(w, min(w + workers, len(runs)))])
+            if release is not None:
+                release()
+
+    waves(lambda i: _list(*args, runs[i][0], runs[i][1], counts[i], _NO_CAND, False, 0, n_bands, span))
     per_band = counts.sum(axis=0)
     start = np.concatenate([[0], np.cumsum(per_band)]).astype(np.int64)
     fill = start[:-1] + np.cumsum(counts, axis=0) - counts  # each run's place in each band
@@ -122,8 +136,7 @@ def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, ba
         base = start[g0]
         cand = np.empty(int(start[g1] - base), np.int32)
         at = fill - base
-        _threaded([lambda i=i: _list(*args, runs[i][0], runs[i][1], at[i], cand, True, g0, g1, span)
-                   for i in range(len(runs))])
+        waves(lambda i: _list(*args, runs[i][0], runs[i][1], at[i], cand, True, g0, g1, span))
         rel = start - base
         bcuts = np.unique(np.concatenate([[g0], np.searchsorted(rel, np.linspace(0, rel[g1], workers + 1)[1:-1]),
                                           [g1]]))
@@ -131,6 +144,8 @@ def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, ba
         _threaded([lambda a=a, b=b: _decide(along, below, step, offsets, loop_level, wp, hp, int(band_rows),
                                              cand, rel, a, b, moves) for a, b in zip(bcuts[:-1], bcuts[1:])])
         del cand
+        if release is not None:
+            release()
     return moves
 
 

@@ -9,7 +9,7 @@ from ...errors import FormatError
 from ...shared.grid import QUANT
 from ..limits import CAP_VALUE_LIMIT, COORD_LIMIT
 from ..validate import check_semantics
-from .layout import Checked, ChannelInfo, cap_origins, stored_points, to_channel
+from .layout import Checked, ChannelInfo, cap_origins, closed_points, to_channel
 
 
 def zigzag(v) -> np.ndarray:
@@ -51,7 +51,7 @@ class Columns:
 def column_channel(ch: Checked) -> bytes:
     """One channel in the column layout (compressions 0, 1 and 2)."""
     c = ch.level.shape[0]
-    d = np.diff(stored_points(ch), axis=0, prepend=np.zeros((1, 2), np.int64))
+    d = np.diff(ch.stored, axis=0, prepend=np.zeros((1, 2), np.int64))
     columns = [
         planes(zigzag(np.diff(ch.level, prepend=0)), 2),
         planes(ch.nseg - 1, 4),
@@ -59,7 +59,7 @@ def column_channel(ch: Checked) -> bytes:
         planes(zigzag(d), 4),
         planes(ch.cap_band, 2),
         planes(zigzag(np.diff(ch.cap_contour, prepend=-1)), 4),
-        planes(zigzag(ch.cq - cap_origins(ch.q, ch.offsets, ch.cap_contour)), 4),
+        planes(zigzag(ch.cq - cap_origins(ch.stored, ch.offsets, ch.cap_contour)), 4),
         planes(zigzag(ch.vq), 4),
         np.packbits(ch.border, bitorder="little").tobytes(),
     ]
@@ -96,12 +96,9 @@ def decode_column_channel(cols: Columns, info: ChannelInfo):
     _check_limit(stored, COORD_LIMIT, f"channel {label}: a control point")
     offsets = np.zeros(c + 1, np.int64)
     np.cumsum(3 * nseg + 1, out=offsets[1:])
-    q = np.empty((int(offsets[-1]), 2), np.int64)
-    keep = np.ones(q.shape[0], bool)
-    keep[offsets[1:] - 1] = False
-    q[keep] = stored
-    q[offsets[1:] - 1] = q[offsets[:-1]]  # close every chain
-    cq = cq + cap_origins(q, offsets, cap_contour)  # cap_contour was checked above
+    cq = cq + cap_origins(stored, offsets, cap_contour)  # cap_contour was checked above
+    q = closed_points(stored, offsets)
+    del stored
     _check_limit(cq, COORD_LIMIT, f"channel {label}: a cap position")
     _check_limit(vq, CAP_VALUE_LIMIT, f"channel {label}: a cap value")
 

@@ -52,9 +52,10 @@ class Header:
 
 
 class Checked:
-    """One channel, checked against the data model, on the 1/64 grids (int64)."""
+    """One channel, checked against the data model, on the 1/64 grids (int64). ``stored``:
+    (3 S, 2), the chains' points without their closing points (what both layouts code)."""
 
-    __slots__ = ("info", "level", "offsets", "nseg", "q", "border", "parent", "cap_band",
+    __slots__ = ("info", "level", "offsets", "nseg", "stored", "border", "parent", "cap_band",
                  "cap_contour", "cq", "vq")
 
 
@@ -63,18 +64,26 @@ def raw_channel_bytes(c: int, s: int, k: int) -> int:
     return 10 * c + 24 * s + 18 * k + (s + 7) // 8
 
 
-def stored_points(ch: Checked) -> np.ndarray:
-    """(3 S, 2): the chains' points without their closing points."""
-    keep = np.ones(ch.q.shape[0], bool)
-    keep[ch.offsets[1:] - 1] = False
-    return ch.q[keep]
+def closed_points(stored: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(offsets[-1], 2): the stored points with each chain's closing point (its first) put
+    back."""
+    c = offsets.shape[0] - 1
+    q = np.empty((stored.shape[0] + c, 2), stored.dtype)
+    closing = offsets[1:] - 1
+    keep = np.ones(q.shape[0], bool)
+    keep[closing] = False
+    q[keep] = stored
+    q[closing] = stored[offsets[:-1] - np.arange(c)]
+    return q
 
 
-def cap_origins(q: np.ndarray, offsets: np.ndarray, cap_contour: np.ndarray) -> np.ndarray:
-    """(K, 2): the first point of each cap's contour, (0, 0) for the root region."""
+def cap_origins(stored: np.ndarray, offsets: np.ndarray, cap_contour: np.ndarray) -> np.ndarray:
+    """(K, 2): the first point of each cap's contour, (0, 0) for the root region (contour i
+    starts at stored row offsets[i] - i: each chain before it left its closing point out)."""
     origins = np.zeros((cap_contour.shape[0], 2), np.int64)
     inner = cap_contour >= 0
-    origins[inner] = q[offsets[cap_contour[inner]]]
+    cc = cap_contour[inner]
+    origins[inner] = stored[offsets[cc] - cc]
     return origins
 
 

@@ -65,24 +65,45 @@ def save(vi: VectorImage, path, compression: str = DEFAULT_COMPRESSION) -> None:
     atomic_write_bytes(path, dumps(vi, compression=compression))
 
 
-def _dumps(vi: VectorImage, compression: int) -> bytes:
+def dumps_held(held: list, compression: str = DEFAULT_COMPRESSION) -> bytes:
+    """dumps of the one VectorImage in ``held``, which is emptied and whose points become
+    the file's integers in their own memory (where they are C-contiguous float64): a caller
+    whose image no one else holds (``isophote encode``'s own) writes it without a second
+    copy of its points (16 bytes a point: 560 MiB of a 16 MP photograph's luma at `high`).
+    The same bytes as dumps; the image must not be used after."""
+    if len(held) != 1:
+        raise ValueError("held must hold exactly one VectorImage")
+    if compression not in COMPRESSION_CODES:
+        raise ValueError(f"compression must be one of {', '.join(COMPRESSION_CODES)}, got {compression!r}")
+    vi = held.pop()
+    try:
+        return _dumps(vi, COMPRESSION_CODES[compression], in_place=True)
+    except FormatError as e:
+        raise ValueError(f"cannot write .isoph: {e}") from None
+
+
+def _dumps(vi: VectorImage, compression: int, in_place: bool = False) -> bytes:
     check_image_kind(vi)
     width, height = int(vi.width), int(vi.height)
     meta = meta_bytes(vi.meta)
-    checked = [checked_channel(ch) for ch in vi.channels]
-    raw_size = sum(raw_channel_bytes(c.info.n_contours, c.info.n_segments, c.info.n_caps) for c in checked)
-
     if compression == COMPRESSION_RANGE:
-        payload = b"".join(map_channels(range_channel, checked, sum(c.info.n_segments for c in checked)))
+        checked, coded = _range_coded(vi.channels, in_place)
+        payload = b"".join(coded)
+        del coded
     else:
+        checked = [checked_channel(ch, in_place) for ch in vi.channels]
         raw = b"".join(column_channel(c) for c in checked)
         payload = raw
         if compression == COMPRESSION_ZLIB:
             payload = zlib.compress(raw, ZLIB_LEVEL)
         elif compression == COMPRESSION_LZMA:
             payload = lzma.compress(raw, format=lzma.FORMAT_RAW, filters=LZMA_WRITE_FILTERS)
+    raw_size = sum(raw_channel_bytes(c.info.n_contours, c.info.n_segments, c.info.n_caps) for c in checked)
     if raw_size > MAX_EXPANSION * len(payload) + EXPANSION_SLACK:
         # Absurdly repetitive contours: readers refuse such ratios (decompression bombs).
+        if compression == COMPRESSION_RANGE:  # the coder shifted the stored points in place
+            for c in checked:
+                np.left_shift(c.stored, c.info.s_p, out=c.stored)
         compression = COMPRESSION_STORED
         payload = b"".join(column_channel(c) for c in checked)
     infos = [c.info for c in checked]
@@ -92,6 +113,36 @@ def _dumps(vi: VectorImage, compression: int) -> bytes:
     head = header_bytes(width, height, vi.colour, int(vi.source_depth), infos, compression,
                         payload, raw_size, meta)
     return head + payload
+
+
+# Channels with this many points in all are checked and range-coded one at a time (each
+# channel's parts of points in threads, format/isoph/rangecoded.py code_channel), fewer side
+# by side: one channel's checking temporaries and coder buffers at a time. The same bytes
+# either way.
+ONE_AT_A_TIME_POINTS = 1 << 22
+
+
+def _range_coded(channels, in_place: bool = False):
+    """([Checked], [coded bytes]) of the channels, each checked then range-coded, its stored
+    points shifted in place (with ``in_place``, in the channel's own memory: checked_channel)."""
+    def one(ch):
+        c = checked_channel(ch, in_place)
+        return c, range_channel(c, take=True)
+
+    n_points = sum(_rows(ch.points) for ch in channels)
+    if n_points >= ONE_AT_A_TIME_POINTS:
+        done = [one(ch) for ch in channels]
+    else:
+        done = map_channels(one, list(channels), n_points // 3)
+    return [c for c, _ in done], [b for _, b in done]
+
+
+def _rows(a) -> int:
+    """len(a), 0 where it has none (checked_channel refuses such points)."""
+    try:
+        return len(a)
+    except TypeError:
+        return 0
 
 
 def _channel_header(ch: Channel):
@@ -111,8 +162,10 @@ def _channel_header(ch: Channel):
     return levels, tone, cap_ramp
 
 
-def checked_channel(ch: Channel) -> Checked:
-    """Check one channel against the data model; quantise it to the 1/64 grids."""
+def checked_channel(ch: Channel, in_place: bool = False) -> Checked:
+    """Check one channel against the data model; quantise it to the 1/64 grids. With
+    ``in_place`` the stored points are made in the points' own memory where they are a
+    C-contiguous writeable float64 array (dumps_held: ch is not usable after)."""
     label = ch.name
     levels, tone, cap_ramp = _channel_header(ch)
     level = _int_array(ch.contour_level, label, "contour_level")
@@ -150,13 +203,17 @@ def checked_channel(ch: Channel) -> Checked:
     if not 0 <= base_band <= levels.shape[0]:
         raise FormatError(f"channel {label}: base band {base_band} is outside [0, {levels.shape[0]}]")
 
-    q = _quantise(points, COORD_LIMIT, f"channel {label}: a control point")
-    if c and not np.array_equal(q[offsets[:-1]], q[offsets[1:] - 1]):
-        bad = int(np.flatnonzero(np.any(q[offsets[:-1]] != q[offsets[1:] - 1], axis=1))[0])
+    what = f"channel {label}: a control point"
+    first = _quantise(points[offsets[:-1]], COORD_LIMIT, what)
+    last = _quantise(points[offsets[1:] - 1], COORD_LIMIT, what)
+    stored = _stored_points(points, offsets, what, in_place)
+    del points
+    if c and not np.array_equal(first, last):
+        bad = int(np.flatnonzero(np.any(first != last, axis=1))[0])
         raise FormatError(f"channel {label}: contour {bad} is not closed (last point != first)")
     out = Checked()
     out.info = ChannelInfo(label, levels, base_band, c, s, k, tone, cap_ramp=cap_ramp)
-    out.level, out.offsets, out.nseg, out.q = level, offsets, nseg, q
+    out.level, out.offsets, out.nseg, out.stored = level, offsets, nseg, stored
     out.border = border.astype(bool)
     out.parent, out.cap_band, out.cap_contour = parent, cap_band, cap_contour
     out.cq = _quantise(cap_xy, COORD_LIMIT, f"channel {label}: a cap position")
@@ -171,11 +228,54 @@ def _int_array(a, label, what) -> np.ndarray:
     return a.astype(np.int64)
 
 
+QUANTISE_CHUNK = 1 << 18  # rows _quantise rounds at a time (no whole-array temporaries)
+
+
+def _quantised_chunks(a: np.ndarray, limit: int, what: str):
+    """(first row, its chunk rounded to the 1/QUANT grid (halves to even) as int64) for each
+    chunk of QUANTISE_CHUNK rows of ``a``, checked within (-limit, limit)."""
+    a = np.asarray(a, dtype=np.float64)
+    for i in range(0, a.shape[0] if a.ndim else 1, QUANTISE_CHUNK):
+        part = a[i : i + QUANTISE_CHUNK] if a.ndim else a
+        if not np.all(np.isfinite(part)):
+            raise FormatError(f"{what} is not finite")
+        scaled = np.rint(part * QUANT)
+        if scaled.size and float(np.abs(scaled).max()) >= limit:
+            raise LimitError(f"{what} lies beyond the format's limit of +-{limit // QUANT}")
+        yield i, scaled.astype(np.int64)
+
+
 def _quantise(a: np.ndarray, limit: int, what: str) -> np.ndarray:
-    """Round to the 1/QUANT grid (halves to even), as int64 within (-limit, limit)."""
-    if not np.all(np.isfinite(a)):
-        raise FormatError(f"{what} is not finite")
-    scaled = np.rint(a * QUANT)
-    if scaled.size and float(np.abs(scaled).max()) >= limit:
-        raise LimitError(f"{what} lies beyond the format's limit of +-{limit // QUANT}")
-    return scaled.astype(np.int64)
+    """Round to the 1/QUANT grid (halves to even), as int64 within (-limit, limit); a chunk
+    of rows at a time (a 16 MP photograph's luma at `high` has 37 M points: its float
+    temporaries were 1.2 GB)."""
+    a = np.asarray(a, dtype=np.float64)
+    out = np.empty(a.shape, np.int64)
+    for i, rows in _quantised_chunks(a, limit, what):
+        if a.ndim:
+            out[i : i + rows.shape[0]] = rows
+        else:
+            out[...] = rows
+    return out
+
+
+def _stored_points(points: np.ndarray, offsets: np.ndarray, what: str, in_place: bool = False) -> np.ndarray:
+    """(offsets[-1] - C, 2): _quantise(points) without each chain's closing point (what the
+    file stores), made chunk by chunk: no whole (N, 2) temporaries beside it. With
+    ``in_place``, in the memory of ``points`` where that is a C-contiguous writeable float64
+    array: a chunk's rows go to rows before its end, all read by then."""
+    closing = offsets[1:] - 1
+    n = points.shape[0] - closing.shape[0]
+    if in_place and points.dtype == np.float64 and points.flags.c_contiguous and points.flags.writeable:
+        out = points.view(np.int64)[:n]
+    else:
+        out = np.empty((n, 2), np.int64)
+    d = 0
+    for i, rows in _quantised_chunks(points, COORD_LIMIT, what):
+        keep = np.ones(rows.shape[0], bool)
+        lo, hi = np.searchsorted(closing, [i, i + rows.shape[0]])
+        keep[closing[lo:hi] - i] = False
+        kept = rows[keep]
+        out[d : d + kept.shape[0]] = kept
+        d += kept.shape[0]
+    return out
