@@ -233,3 +233,16 @@ def test_peak_rss_of_a_4mp_encode_stays_under_the_asserted_bound():
     assert status == 0
     peak_mb = usage.ru_maxrss / 1024
     assert peak_mb < BOUNDED_PEAK_MB < UNBOUNDED_PEAK_MB
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 3), (7, 5, 4), (301, 97, 3)])
+def test_yuv_planes_in_runs_of_rows_are_rgb_to_yuvs_bits(monkeypatch, shape):
+    """The colour conversion a run of rows at a time (runs of 1, 7 and all rows; RGB and
+    RGBA) gives rgb_to_yuv's planes bit for bit, each its own C-contiguous array."""
+    px = np.random.default_rng(3).uniform(0, 255, shape)
+    want = rgb_to_yuv(px[..., :3])
+    for rows in (1, 7, shape[0]):
+        monkeypatch.setattr(E, "CONVERT_PIXELS", rows * shape[1])
+        got = E.yuv_planes(px)
+        assert len(got) == 3 and all(p.flags.c_contiguous and p.shape == shape[:2] for p in got)
+        assert all(np.array_equal(got[i], want[..., i]) for i in range(3))
