@@ -208,7 +208,8 @@ def test_cli_memory_flag(tmp_path, capsys):
 # part dropped after its last reader 596-597 MB (session 21); the caps per cap, the errors
 # a row source, the bands a byte, the plane and chains in temporary files (this budget
 # spills them) 531-532 MB (session 22); the polylines on mapped temporary files, their
-# pages given back run by run (sessions 23-24) 507 MB. What remains is the image's band grid
+# pages given back run by run, and the start (smoothness test, pruning thresholds) in runs of
+# rows (sessions 23-24) 472 MB. What remains is the image's band grid
 # and labels at the caps, the returned chains and the stages' runs (docs/streaming.md).
 RSS_CHILD = r"""
 import numpy as np, isophote
@@ -220,7 +221,7 @@ vi = isophote.encode(np.clip(img, 0, 255).astype(np.uint8), preset="balanced", m
 assert sum(c.points.shape[0] for c in vi.channels) > 500_000
 """
 UNBOUNDED_PEAK_MB = 1671
-BOUNDED_PEAK_MB = 1150  # 507 MB with the kernels cached (531-532 in session 22; 829-984 when the child compiled them)
+BOUNDED_PEAK_MB = 1150  # 472 MB with the kernels cached (531-532 in session 22; 829-984 when the child compiled them)
 
 
 def test_peak_rss_of_a_4mp_encode_stays_under_the_asserted_bound():

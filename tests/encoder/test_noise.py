@@ -244,3 +244,67 @@ def test_no_floor_for_lossless_files(tmp_path):
 
     Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(tmp_path / "x.png")
     assert read_image(tmp_path / "x.png").noise_floor is None
+
+
+@pytest.mark.parametrize("shape", [(3, 3), (5, 200), (257, 131)])
+def test_smoothness_measures_in_runs_of_rows_have_the_whole_computations_bits(monkeypatch, shape):
+    """is_smooth's share of fine-grained pixels and mean gradient, a run of 1, 7 or all rows
+    at a time, equal the whole-plane formulas bit for bit (and so decide alike)."""
+    from scipy import ndimage
+
+    from isophote.encoder import noise
+
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]]
+    luma = 128 + 40 * np.sin(xx / 9.0) * np.cos(yy / 13.0) + np.random.default_rng(0).normal(0, 0.6, shape)
+    share = float(np.mean(local_noise(luma) < noise.GRAIN_FULL))
+    grad = float(np.hypot(*np.gradient(ndimage.gaussian_filter(luma, 1.0))).mean())
+    assert 0 < share <= 1 and grad > 0
+    for rows in (1, 7, shape[0]):
+        monkeypatch.setattr(noise, "SMOOTH_RUN_PIXELS", rows * shape[1])
+        assert noise.fine_share(luma) == share and noise.mean_gradient(luma) == grad
+        assert noise.is_smooth(luma) == (share >= noise.SMOOTH_SHARE and grad < noise.SMOOTH_GRADIENT)
+
+
+def test_pruning_thresholds_made_in_runs_of_rows_prune_alike(monkeypatch):
+    """The pruning's thresholds, made a run of the error rows at a time (1, 5 rows or all),
+    prune the plane to the same bits, and pruning does move samples here."""
+    from isophote.encoder import noise
+
+    rng = np.random.default_rng(4)
+    plane = _ramp() + rng.normal(0, 2.0, (96, 128))
+    opts = EncodeOptions(preset="balanced").resolved()
+    levels = np.arange(3.5, 250, 4.0)
+    want, _ = prepare_plane("U", plane, 0.5, levels, opts)
+    assert not np.array_equal(want, plane)
+    for rows in (1, 5):
+        monkeypatch.setattr(noise, "SMOOTH_RUN_PIXELS", rows * plane.shape[1])
+        got, _ = prepare_plane("U", plane, 0.5, levels, opts)
+        assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 50), (257, 131)])
+def test_grain_smoothing_in_runs_of_rows_is_the_whole_formulas(monkeypatch, shape):
+    """smooth_grain a run of 1, 7 or all rows at a time gives the whole-plane formula's
+    bits (module docstring, "Grain smoothing"), with the noise estimated or given, and moves
+    the grain."""
+    from scipy import ndimage
+
+    from isophote.encoder import noise
+
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]]
+    plane = 128 + 40 * np.sin(xx / 9.0) * np.cos(yy / 13.0) + np.random.default_rng(1).normal(0, 0.6, shape)
+    plane[:, :1] = 100.0
+    t = 2.0
+    for sigma in (None, np.full(shape, 0.4)):
+        s = local_noise(plane) if sigma is None else sigma
+        g = ndimage.gaussian_filter(plane, noise.GRAIN_SIGMA, mode="nearest")
+        grad = np.hypot(*np.gradient(g))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wander = np.where(grad > 0, s / np.maximum(grad, 1e-300), np.inf)
+        bound = (t * s * np.clip(2.0 - s / noise.GRAIN_FULL, 0.0, 1.0)
+                 * np.clip(np.nan_to_num(wander / noise.GRAIN_WANDER - 1.0, posinf=1.0), 0.0, 1.0))
+        want = plane + np.clip(g - plane, -bound, bound)
+        assert shape[0] < 100 or not np.array_equal(want, plane)  # the grain moves where there is room
+        for rows in (1, 7, shape[0]):
+            monkeypatch.setattr(noise, "SMOOTH_RUN_PIXELS", rows * shape[1])
+            assert np.array_equal(noise.smooth_grain(plane, t, sigma), want)

@@ -72,6 +72,7 @@ GRAIN_FULL = 1.0  # grey levels of noise deviation under which the move is whole
 GRAIN_WANDER = 1.0  # px of isoline wander (sigma / |grad|) above which the move starts
 SMOOTH_SHARE = 0.85  # share of fine-grained luma pixels that makes a photograph "smooth"
 SMOOTH_GRADIENT = 4.0  # grey levels a pixel: the most mean |grad| (1 px blur) of a smooth one
+SMOOTH_RUN_PIXELS = 1 << 20  # pixels is_smooth takes at a time
 MAD_TO_SIGMA = 1.4826  # sigma of a normal distribution / its median absolute deviation
 
 # Immerkær (1996), "Fast noise variance estimation": L2 - 2 L1 of two Laplacians. Its
@@ -194,14 +195,23 @@ def smooth_grain(plane: np.ndarray, t: float, sigma: np.ndarray | None = None) -
     f = np.asarray(plane, np.float64)
     if t <= 0 or min(f.shape) < 2:
         return f.copy()
-    s = local_noise(f) if sigma is None else np.asarray(sigma, np.float64)
+    noise = noise_rows(f) if sigma is None else (lambda a, b, s=np.asarray(sigma, np.float64): s[a:b])
     g = ndimage.gaussian_filter(f, GRAIN_SIGMA, mode="nearest")
-    grad = np.hypot(*np.gradient(g))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        wander = np.where(grad > 0, s / np.maximum(grad, 1e-300), np.inf)
-    bound = (t * s * np.clip(2.0 - s / GRAIN_FULL, 0.0, 1.0)
-             * np.clip(np.nan_to_num(wander / GRAIN_WANDER - 1.0, posinf=1.0), 0.0, 1.0))
-    return f + np.clip(g - f, -bound, bound)
+    out = np.empty_like(f)
+    # a run of rows at a time (the whole formula's temporaries were about 60 bytes a pixel),
+    # each sample's value the whole formula's: the gradient rows from their neighbours in g
+    h = f.shape[0]
+    step = max(1, SMOOTH_RUN_PIXELS // f.shape[1])
+    for a in range(0, h, step):
+        b = min(a + step, h)
+        grad = gradient_rows(g, a, b)
+        s = noise(a, b)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wander = np.where(grad > 0, s / np.maximum(grad, 1e-300), np.inf)
+        bound = (t * s * np.clip(2.0 - s / GRAIN_FULL, 0.0, 1.0)
+                 * np.clip(np.nan_to_num(wander / GRAIN_WANDER - 1.0, posinf=1.0), 0.0, 1.0))
+        out[a:b] = f[a:b] + np.clip(g[a:b] - f[a:b], -bound, bound)
+    return out
 
 
 def is_smooth(luma: np.ndarray) -> bool:
@@ -212,14 +222,45 @@ def is_smooth(luma: np.ndarray) -> bool:
     finer levels would cost: Grey (clean, 96 % fine-grained, but planks everywhere, mean
     |grad| 7.0) would double its bytes at levels every 4; the smooth photographs of the wide
     corpus have 0.3-2.5."""
-    from scipy import ndimage
-
     luma = np.asarray(luma, np.float64)
     if min(luma.shape) < 3:  # too small to have a gradient, or a region to smooth
         return False
-    if float(np.mean(local_noise(luma) < GRAIN_FULL)) < SMOOTH_SHARE:
-        return False
-    return float(np.hypot(*np.gradient(ndimage.gaussian_filter(luma, 1.0))).mean()) < SMOOTH_GRADIENT
+    return fine_share(luma) >= SMOOTH_SHARE and mean_gradient(luma) < SMOOTH_GRADIENT
+
+
+# is_smooth's two measures, a run of rows at a time (whole-plane temporaries were 40 bytes a
+# pixel: 600 MiB of a 16 MP photograph) with the whole computation's bits.
+
+
+def fine_share(luma: np.ndarray) -> float:
+    """np.mean(local_noise(luma) < GRAIN_FULL): the fine-grained pixels counted run by run."""
+    h = luma.shape[0]
+    step = max(1, SMOOTH_RUN_PIXELS // max(luma.shape[1], 1))
+    noise = noise_rows(luma)
+    fine = sum(int(np.count_nonzero(noise(a, min(a + step, h)) < GRAIN_FULL)) for a in range(0, h, step))
+    return fine / luma.size
+
+
+def mean_gradient(luma: np.ndarray) -> float:
+    """np.hypot(*np.gradient(gaussian_filter(luma, 1))).mean() (at least 2 rows): each run of
+    gradient rows made from its blurred rows and their neighbours."""
+    from scipy import ndimage
+
+    h = luma.shape[0]
+    step = max(1, SMOOTH_RUN_PIXELS // max(luma.shape[1], 1))
+    g = ndimage.gaussian_filter(luma, 1.0)
+    grad = np.empty_like(g)
+    for a in range(0, h, step):
+        grad[a : a + step] = gradient_rows(g, a, min(a + step, h))
+    return float(grad.mean())
+
+
+def gradient_rows(g: np.ndarray, a: int, b: int) -> np.ndarray:
+    """np.hypot(*np.gradient(g))[a:b] (g at least 2 rows), from rows a - 1 .. b of g alone:
+    the same bits (central differences inside, one-sided at the plane's first and last row)."""
+    lo, hi = max(a - 1, 0), min(b + 1, g.shape[0])
+    gy, gx = np.gradient(g[lo:hi])
+    return np.hypot(gy[a - lo : b - lo], gx[a - lo : b - lo])
 
 
 def adapt_steps(opts, luma: np.ndarray):
@@ -277,10 +318,21 @@ def prepare_plane_rows(name, plane, eps, levels, opts):
     if local > 0:
         eps = error_rows(plane, eps, levels, local, channel_floor(opts.noise_floor, name))
     if prune_area > 0 and opts.prune_contrast > 0:
-        whole = eps(0, plane.shape[0]) if callable(eps) else np.asarray(eps)
-        plane = prune_extrema(plane, levels, prune_area, opts.prune_contrast * whole)
-        del whole
+        # the thresholds, a run of the errors' rows at a time (their temporaries were 30 bytes
+        # a pixel; ErrorRows gives the same bits whatever the rows), scaled in place
+        thr = _rows_whole(eps, plane.shape) if callable(eps) else np.array(eps, np.float64)
+        plane = prune_extrema(plane, levels, prune_area, np.multiply(thr, opts.prune_contrast, out=thr))
+        del thr
     return plane, eps
+
+
+def _rows_whole(rows, shape) -> np.ndarray:
+    """The (H, W) plane of a row source (rows(a, b) its rows a..b), SMOOTH_RUN_PIXELS at a time."""
+    out = np.empty(shape)
+    step = max(1, SMOOTH_RUN_PIXELS // max(shape[1], 1))
+    for a in range(0, shape[0], step):
+        out[a : a + step] = rows(a, min(a + step, shape[0]))
+    return out
 
 
 def channel_floor(noise_floor, name) -> float:

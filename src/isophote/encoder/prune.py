@@ -51,6 +51,8 @@ def prune_extrema(plane, levels, area, contrast) -> np.ndarray:
     f = np.array(plane, np.float64, copy=True)
     if area <= 1 or f.size == 0:
         return f
+    if f.size >= 2**31:  # the kernel lists samples as int32 (the encoder's MAX_PIXELS is far below)
+        raise ValueError(f"a plane of {f.size} samples is too large to prune")
     thr = np.ascontiguousarray(np.broadcast_to(np.asarray(contrast, np.float64), f.shape))
     # no component exceeds the plane: a larger area changes nothing but the kernel's scratch
     prune_kernel(f, thr, np.ascontiguousarray(levels, np.float64), int(min(np.ceil(area), f.size + 1)))

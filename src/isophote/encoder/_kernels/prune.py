@@ -124,7 +124,7 @@ def prune_kernel(f, thr, levels, area):
     seen = np.full(n, -1, np.int64)
     stack = np.empty(4 * area + 4, np.int64)  # each of < area samples pushes <= 4
     comp = np.empty(area, np.int64)
-    drop = np.empty(n, np.int64)
+    drop = np.empty(n, np.int32)  # sample indices: MAX_PIXELS < 2**31 (4 bytes a sample less)
     next_id = 0
     for li in range(levels.shape[0]):
         level = levels[li]
