@@ -52,12 +52,7 @@ def dumps(vi: VectorImage, compression: str = DEFAULT_COMPRESSION) -> bytes:
     LimitError
         A size, coordinate or cap value exceeds a limit of the format.
     """
-    if compression not in COMPRESSION_CODES:
-        raise ValueError(f"compression must be one of {', '.join(COMPRESSION_CODES)}, got {compression!r}")
-    try:
-        return _dumps(vi, COMPRESSION_CODES[compression])
-    except FormatError as e:
-        raise ValueError(f"cannot write .isoph: {e}") from None
+    return _dumps_checked(vi, _compression_code(compression), in_place=False)
 
 
 def save(vi: VectorImage, path, compression: str = DEFAULT_COMPRESSION) -> None:
@@ -73,11 +68,20 @@ def dumps_held(held: list, compression: str = DEFAULT_COMPRESSION) -> bytes:
     The same bytes as dumps; the image must not be used after."""
     if len(held) != 1:
         raise ValueError("held must hold exactly one VectorImage")
+    code = _compression_code(compression)  # refused before the image is taken
+    return _dumps_checked(held.pop(), code, in_place=True)
+
+
+def _compression_code(compression: str) -> int:
     if compression not in COMPRESSION_CODES:
         raise ValueError(f"compression must be one of {', '.join(COMPRESSION_CODES)}, got {compression!r}")
-    vi = held.pop()
+    return COMPRESSION_CODES[compression]
+
+
+def _dumps_checked(vi: VectorImage, code: int, in_place: bool) -> bytes:
+    """_dumps with the data model's errors as ValueError."""
     try:
-        return _dumps(vi, COMPRESSION_CODES[compression], in_place=True)
+        return _dumps(vi, code, in_place)
     except FormatError as e:
         raise ValueError(f"cannot write .isoph: {e}") from None
 
