@@ -37,7 +37,7 @@ from .budget import (
 )
 from .strips import strip_isolines
 from .levels import channel_levels
-from .noise import adapt_steps, prepare_plane_rows
+from .noise import adapt_steps, plane_runs, prepare_plane_rows
 
 # Handles go onto grids of up to 2**HANDLE_SHIFT / QUANT px (in the chord's frame) where the
 # segment stays in its ribbon (_kernels/fit.py, step 4), and the file codes them divided by
@@ -162,13 +162,11 @@ def yuv_planes(pixels: np.ndarray) -> list:
     samples, converted a run of rows at a time: rgb_to_yuv's values (its product is taken
     row by row either way), without its (H, W, 3) result and temporaries beside the samples
     and the planes (48 bytes a pixel: 750 MiB of a 16 MP photograph)."""
-    h, w = pixels.shape[:2]
-    planes = [np.empty((h, w)) for _ in range(3)]
-    rows = max(1, CONVERT_PIXELS // max(w, 1))
-    for a in range(0, h, rows):
-        yuv = rgb_to_yuv(pixels[a : a + rows, :, :3])
+    planes = [np.empty(pixels.shape[:2]) for _ in range(3)]
+    for a, b in plane_runs(pixels.shape, CONVERT_PIXELS):
+        yuv = rgb_to_yuv(pixels[a:b, :, :3])
         for i in range(3):
-            planes[i][a : a + rows] = yuv[..., i]
+            planes[i][a:b] = yuv[..., i]
     return planes
 
 
@@ -232,13 +230,12 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
     del plane, eps
     contour_level, base_band = iso.level.astype(np.int32), iso.base_band
     q = float(QUANT)
-    on_grid = False  # whether the chains came on the file's grid, rotated and made pixels
     if threads.available() > 1 and overlap_fit_and_hierarchy(int(iso.offsets[-1]), memory):
         with ThreadPoolExecutor(max_workers=1) as side:  # the hierarchy alongside the fit
             tree = side.submit(build_hierarchy, iso, levels)
             points, offsets, border = fit_isolines(iso, opts.snap, fit_batch_points(memory))
             tree = tree.result()
-        points = np.round(points * q) / q
+        points, border = start_at_first_joint(np.round(points * q) / q, offsets, border)
     else:  # one after the other: their temporaries do not add up (same result)
         if spill:  # the plane waits on disk until the caps, the chains beside the hierarchy (budget.py)
             iso.values.spill()
@@ -255,15 +252,12 @@ def encode_channel(name: str, held: list, eps: float, opts: EncodeOptions) -> Ch
         tree = build_hierarchy_held(held, levels, pager)
         held.clear()
         trim_heap()
-        on_grid = True
         points = chains() if callable(chains) else chains
         del chains
         # rotated on the file's grid (the same order as in pixels: q is a power of two),
         # then made pixels a chunk at a time (the values of points.astype(float64) / q)
         points, border = start_at_first_joint(points, offsets, border)
         points = _grid_to_pixels(points, q)
-    if not on_grid:
-        points, border = start_at_first_joint(points, offsets, border)
     # what the channel's stages freed in the threads' arenas goes back now, not beside the
     # next channel or the file's writing (the mosaic at `high`: 250 MiB; shared/heap.py)
     trim_heap()

@@ -21,6 +21,7 @@ import numpy as np
 from .. import threads
 from ..geometry.areas import polyline_areas, polyline_areas_range
 from ..model import CAP_RAMP
+from ..shared.spill import RELEASE_POINTS
 from ._kernels.enclose import (
     count_rows, innermost_enclosing, innermost_enclosing_rows, loop_blocks, place_rows, sweep_enclosing_rows,
 )
@@ -146,11 +147,6 @@ def crossing_levels(iso: Isolines, labels: np.ndarray, m: int, release=None):
         lo, hi = (a, b) if lo is None else (np.minimum(lo, a, out=lo), np.maximum(hi, b, out=hi))
         del a, b
     return lo, hi
-
-
-# Points a run of loops holds where the Isolines' per-point arrays are on a Pager's files
-# and released between runs (crossing_levels, _enclosing).
-RELEASE_POINTS = 1 << 22
 
 
 def loop_runs(offsets: np.ndarray, points: int) -> list:

@@ -72,7 +72,7 @@ GRAIN_FULL = 1.0  # grey levels of noise deviation under which the move is whole
 GRAIN_WANDER = 1.0  # px of isoline wander (sigma / |grad|) above which the move starts
 SMOOTH_SHARE = 0.85  # share of fine-grained luma pixels that makes a photograph "smooth"
 SMOOTH_GRADIENT = 4.0  # grey levels a pixel: the most mean |grad| (1 px blur) of a smooth one
-SMOOTH_RUN_PIXELS = 1 << 20  # pixels is_smooth takes at a time
+SMOOTH_RUN_PIXELS = 1 << 20  # pixels a step over a whole plane takes at a time (plane_runs)
 MAD_TO_SIGMA = 1.4826  # sigma of a normal distribution / its median absolute deviation
 
 # Immerkær (1996), "Fast noise variance estimation": L2 - 2 L1 of two Laplacians. Its
@@ -200,10 +200,7 @@ def smooth_grain(plane: np.ndarray, t: float, sigma: np.ndarray | None = None) -
     out = np.empty_like(f)
     # a run of rows at a time (the whole formula's temporaries were about 60 bytes a pixel),
     # each sample's value the whole formula's: the gradient rows from their neighbours in g
-    h = f.shape[0]
-    step = max(1, SMOOTH_RUN_PIXELS // f.shape[1])
-    for a in range(0, h, step):
-        b = min(a + step, h)
+    for a, b in plane_runs(f.shape):
         grad = gradient_rows(g, a, b)
         s = noise(a, b)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -234,10 +231,8 @@ def is_smooth(luma: np.ndarray) -> bool:
 
 def fine_share(luma: np.ndarray) -> float:
     """np.mean(local_noise(luma) < GRAIN_FULL): the fine-grained pixels counted run by run."""
-    h = luma.shape[0]
-    step = max(1, SMOOTH_RUN_PIXELS // max(luma.shape[1], 1))
     noise = noise_rows(luma)
-    fine = sum(int(np.count_nonzero(noise(a, min(a + step, h)) < GRAIN_FULL)) for a in range(0, h, step))
+    fine = sum(int(np.count_nonzero(noise(a, b) < GRAIN_FULL)) for a, b in plane_runs(luma.shape))
     return fine / luma.size
 
 
@@ -246,13 +241,19 @@ def mean_gradient(luma: np.ndarray) -> float:
     gradient rows made from its blurred rows and their neighbours."""
     from scipy import ndimage
 
-    h = luma.shape[0]
-    step = max(1, SMOOTH_RUN_PIXELS // max(luma.shape[1], 1))
     g = ndimage.gaussian_filter(luma, 1.0)
     grad = np.empty_like(g)
-    for a in range(0, h, step):
-        grad[a : a + step] = gradient_rows(g, a, min(a + step, h))
+    for a, b in plane_runs(g.shape):
+        grad[a:b] = gradient_rows(g, a, b)
     return float(grad.mean())
+
+
+def plane_runs(shape, pixels: int | None = None) -> list:
+    """Runs [a, b) of the rows of an (H, W) plane, about ``pixels`` (SMOOTH_RUN_PIXELS when
+    None) pixels each, at least a row: what the steps over a whole plane take at a time."""
+    h, w = int(shape[0]), int(shape[1])
+    step = max(1, (SMOOTH_RUN_PIXELS if pixels is None else int(pixels)) // max(w, 1))
+    return [(a, min(a + step, h)) for a in range(0, h, step)]
 
 
 def gradient_rows(g: np.ndarray, a: int, b: int) -> np.ndarray:
@@ -329,9 +330,8 @@ def prepare_plane_rows(name, plane, eps, levels, opts):
 def _rows_whole(rows, shape) -> np.ndarray:
     """The (H, W) plane of a row source (rows(a, b) its rows a..b), SMOOTH_RUN_PIXELS at a time."""
     out = np.empty(shape)
-    step = max(1, SMOOTH_RUN_PIXELS // max(shape[1], 1))
-    for a in range(0, shape[0], step):
-        out[a : a + step] = rows(a, min(a + step, shape[0]))
+    for a, b in plane_runs(shape):
+        out[a:b] = rows(a, b)
     return out
 
 

@@ -12,6 +12,10 @@ import numpy as np
 # File systems whose files live in memory: a file there saves no memory (Linux's /tmp is
 # often a tmpfs); TMPDIR may name a directory on disk instead.
 IN_MEMORY = ("tmpfs", "ramfs")
+# Points (or segments) a stage holds between the calls of a Pager's release() when it passes
+# over arrays on its files in runs (the encoder's joint moves and hierarchy): 4 M points,
+# about 90 MiB of a channel's polylines.
+RELEASE_POINTS = 1 << 22
 
 
 def file_system(path: str) -> str | None:

@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from ... import threads
+from ...shared.spill import RELEASE_POINTS
 
 # At most this many crossings of one loop move onto one sample: two are a corner the loop
 # cuts at the sample; four would shrink a loop round the sample onto it (area 0; a perspective
@@ -78,10 +79,6 @@ def _candidate(along, below, step, band, lev, k, wp, hp, frac, tol):
             and band[s] == (lev if s == below[k] else lev + 1)):
         return s, r
     return -1, -1
-
-
-# Points a run of loops holds where the inputs' pages are released between runs (joint_moves).
-RELEASE_POINTS = 1 << 22
 
 
 def joint_moves(along, below, step, band, offsets, loop_level, tol, wp, frac, band_rows=BAND_ROWS, workers=1,
