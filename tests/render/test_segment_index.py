@@ -28,20 +28,27 @@ def test_index_kernels_match_their_twins(seed):
     rng = np.random.default_rng(900 + seed)
     points, first, _ = _chains(rng)
     for r, cull, sky, soff in [(1.0, False, 0.0, 0.0), (0.25, True, 0.0, 0.0), (0.125, True, 0.25, 0.3)]:
-        ids, box = K.segment_boxes(points, first, r, cull, sky, soff)
-        ids_r, box_r = R.segment_boxes(points, first, r, cull, sky, soff)
-        assert np.array_equal(ids, ids_r) and np.array_equal(box, box_r) and box.dtype == np.float32
+        ids = K.kept_segments(points, first, r, cull, sky, soff)
+        assert np.array_equal(ids, R.kept_segments(points, first, r, cull, sky, soff)) and ids.dtype == np.int32
+        assert cull or len(ids) == len(first)
+        box = K.segment_boxes(points, first, ids, r)
+        assert np.array_equal(box, R.segment_boxes(points, first, ids, r)) and box.dtype == np.float32
         size, nbr, nbc = 4, int(np.ceil(64 * r / 4)) + 1, int(np.ceil(64 * r / 4)) + 2
-        index, starts = K.grid_index(box, size, nbr, nbc)
-        index_r, starts_r = R.grid_index(box, size, nbr, nbc)
+        index, starts = K.grid_index(points, first, ids, r, size, nbr, nbc)
+        index_r, starts_r = R.grid_index(points, first, ids, r, size, nbr, nbc)
         assert np.array_equal(index, index_r) and np.array_equal(starts, starts_r)
         for _ in range(5):
             b0, c0 = rng.integers(0, nbr), rng.integers(0, nbc)
             b1, c1 = rng.integers(b0, nbr), rng.integers(c0, nbc)
             lims = (float(c0 * size - 1), float((c1 + 1) * size + 1), float(b0 * size - 1), float((b1 + 1) * size + 1))
-            got = K.select(index, starts, nbc, b0, b1, c0, c1, box, *lims)
-            assert np.array_equal(got, R.select(index, starts, nbc, b0, b1, c0, c1, box, *lims))
+            got = K.select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, *lims)
+            assert np.array_equal(got, R.select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, *lims))
             assert np.all(np.diff(got) > 0)
+            # the known answer: every kept segment whose box reaches the blocks and the limits
+            reach = ((box[1] >= lims[0]) & (box[0] <= lims[1]) & (box[3] >= lims[2]) & (box[2] <= lims[3])
+                     & (box[3] + 1 >= b0 * size) & (box[2] - 1 < (b1 + 1) * size)
+                     & (box[1] + 1 >= c0 * size) & (box[0] - 1 < (c1 + 1) * size))
+            assert np.array_equal(got, np.flatnonzero(reach))
 
 
 def test_flatten_selected_is_flatten_of_those_segments():
@@ -61,7 +68,7 @@ def test_culled_segments_change_no_band_or_crossing(r):
     points, first, segs = _chains(rng, 2000, span=64.0, size=1.5)
     border = rng.random(len(first)) < 0.1
     sky = 2 * r  # the samples of a reduction: two a pixel side
-    ids, _ = K.segment_boxes(points, first, r, True, sky, 0.0)
+    ids = K.kept_segments(points, first, r, True, sky, 0.0)
     if r < 1:
         assert len(ids) < 0.8 * len(first)
     for scale, transposed in [(r, False), (r, True), (sky, False)]:
@@ -140,3 +147,18 @@ def test_rasterise_window_is_rows_and_columns():
     b = rasterise_chains(points, first, border, ids, 0.05, 0.5, 2.0, 0.5, 3.0, True, 0, 0, 13, 11, True, True)
     for u, v in zip(rows + cols, a + b):
         assert np.array_equal(u, v)
+
+
+def test_segment_firsts_are_the_chains_segment_starts():
+    """Each segment's first control point, int32, against chains.segment_starts and the
+    NumPy twin: chains of 1, 2 and 5 segments and an empty channel."""
+    from isophote.geometry import segment_starts
+    from isophote.render.segment_index import segment_firsts
+
+    offsets = np.array([0, 4, 11, 27, 31], np.int64)  # 1, 2, 5 and 1 segments
+    got = segment_firsts(offsets)
+    assert got.dtype == np.int32
+    assert got.tolist() == [0, 4, 7, 11, 14, 17, 20, 23, 27]
+    assert np.array_equal(got, segment_starts(offsets)[0])
+    assert np.array_equal(R.fill_firsts(offsets, np.empty(9, np.int32)), got)
+    assert segment_firsts(np.zeros(1, np.int64)).shape == (0,)

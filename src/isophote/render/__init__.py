@@ -29,11 +29,11 @@ from ..colour import YUV_TO_RGB, fit_gamut, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import IsophoteError, LimitError
 from ..options import RenderOptions, make
-from ..geometry import segment_starts
 from ..shared.heap import return_freed_memory
 from .blocks import CANVAS_LOCK, WINDOW_BYTES, ChannelLevel, make_level, split
 from .levels import auto_supersample, level_r
 from .prepare import prepared
+from .segment_index import segment_firsts
 from .sharpen import gains
 from .strips import (STRIP_ROWS, BlockCache, SampleEdges, canvas_buckets, crop_windings, fill_rows,  # noqa: F401
                      fill_samples, finish, sample_positions, strip_cuts)
@@ -267,8 +267,8 @@ def channel_state(vi, ch, vp: Viewport, opts: RenderOptions, prep=None, plan_onl
     rows = (vp.ky, vp.offy)  # the sample rows: segments that cross none of them nor the nodes' are culled
 
     def make_level_state():
-        first = prep.get(prep.edges, ch.name, lambda: segment_starts(ch.offsets)[0]) if prep is not None \
-            else segment_starts(ch.offsets)[0]
+        first = prep.get(prep.edges, ch.name, lambda: segment_firsts(ch.offsets)) if prep is not None \
+            else segment_firsts(ch.offsets)
         if level.block:
             with CANVAS_LOCK:  # the canvas-wide passes one at a time: their memory adds up
                 return ChannelLevel(vi, ch, first, tol, level, rows, prep)

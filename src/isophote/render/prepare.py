@@ -2,10 +2,10 @@
 
 Without it every render builds what it needs and lets it go. With it (``prepare(vi)``,
 kept with the VectorImage until it is collected) renders and tiles reuse, per channel:
-- each segment's first control point in the chains (8 bytes a segment);
+- each segment's first control point in the chains (4 bytes a segment);
 - each level's ChannelLevel (one per zoom): its segment index (segment_index.py: the
-  segments that cross its node rows or columns or its sample rows, their boxes and a CSR
-  list per block, about 26 bytes a kept segment) and for a blocked level the canvas-wide
+  segments that cross its node rows or columns or its sample rows and a CSR list of them
+  per block, about 10 bytes a kept segment; their boxes are computed where tested) and for a blocked level the canvas-wide
   regions (6 bytes a node: 96 MB a channel at 1x for 16 MP). Making one costs a pass over
   the channel's segments, flattened and rasterised on the level's node rows (no crossings)
   and a labelling of the level: about a fifth of a render's geometry at that zoom;

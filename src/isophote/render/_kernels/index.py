@@ -2,7 +2,8 @@
 index_ref.py.
 
 Boxes are the segments' control-point hulls in node units (float32, as the block windows test
-them). A segment is *culled* when its box holds no node row, no node column and no sample row
+them), computed from the points wherever they are tested and never held (16 bytes a kept
+segment: 170 MB for the luma of a 16 MP `high` master). A segment is *culled* when its box holds no node row, no node column and no sample row
 (of the lattice given, in sample units): the rasteriser counts an edge only on the rows (and,
 transposed, the columns) it crosses, and a segment's edges lie in its box, so a culled segment
 changes no band, no crossing and no field. CULL_SLACK (in node or sample units) is far above
@@ -24,33 +25,74 @@ def _holds_row(lo, hi):
 
 
 @njit(cache=True, nogil=True)
-def segment_boxes(points, first, r, cull, sky, soff):
-    """(kept ids (K,) int32 ascending, boxes (4, K) float32 [x_lo, x_hi, y_lo, y_hi] in node
-    units at r nodes a source pixel). With ``cull`` only the segments whose box holds a node
-    row or column, or (sky > 0) a sample row at y * sky - soff = I + 0.5."""
+def fill_firsts(offsets, out):
+    """out[k]: the index in the points of segment k's first control point (chains.segment_starts'
+    first), in out's own dtype: int32 for every channel under 2**31 points, half the bytes."""
+    e = 0
+    for c in range(offsets.shape[0] - 1):
+        for f in range(offsets[c], offsets[c + 1] - 1, 3):
+            out[e] = f
+            e += 1
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _box(points, f, r):
+    """Segment points[f:f + 4]'s control-point hull times r: (x_lo, x_hi, y_lo, y_hi)."""
+    xlo = min(min(points[f, 0], points[f + 1, 0]), min(points[f + 2, 0], points[f + 3, 0]))
+    xhi = max(max(points[f, 0], points[f + 1, 0]), max(points[f + 2, 0], points[f + 3, 0]))
+    ylo = min(min(points[f, 1], points[f + 1, 1]), min(points[f + 2, 1], points[f + 3, 1]))
+    yhi = max(max(points[f, 1], points[f + 1, 1]), max(points[f + 2, 1], points[f + 3, 1]))
+    return xlo * r, xhi * r, ylo * r, yhi * r
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _node_box(points, f, r):
+    """The segment's box in node units, float32 (what the blocks and windows test)."""
+    xlo, xhi, ylo, yhi = _box(points, f, r)
+    return np.float32(xlo), np.float32(xhi), np.float32(ylo), np.float32(yhi)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _kept(points, f, r, sky, soff):
+    xlo, xhi, ylo, yhi = _box(points, f, 1.0)
+    keep = _holds_row(ylo * r, yhi * r) or _holds_row(xlo * r, xhi * r)
+    if not keep and sky > 0.0:
+        keep = _holds_row(ylo * sky - soff, yhi * sky - soff)
+    return keep
+
+
+@njit(cache=True, nogil=True)
+def kept_segments(points, first, r, cull, sky, soff):
+    """(K,) int32 ascending: the segments kept at r nodes a source pixel; with ``cull`` only
+    those whose box holds a node row or column, or (sky > 0) a sample row at
+    y * sky - soff = I + 0.5. Two passes, so that nothing of the segments' count but a byte
+    each is held beside the result."""
     n = first.shape[0]
-    ids = np.empty(n, np.int32)
-    box = np.empty((4, n), np.float32)
-    kept = 0
+    keep = np.ones(n, np.bool_)
+    kept = n
+    if cull:
+        kept = 0
+        for k in range(n):
+            keep[k] = _kept(points, first[k], r, sky, soff)
+            kept += keep[k]
+    ids = np.empty(kept, np.int32)
+    e = 0
     for k in range(n):
-        f = first[k]
-        xlo = min(min(points[f, 0], points[f + 1, 0]), min(points[f + 2, 0], points[f + 3, 0]))
-        xhi = max(max(points[f, 0], points[f + 1, 0]), max(points[f + 2, 0], points[f + 3, 0]))
-        ylo = min(min(points[f, 1], points[f + 1, 1]), min(points[f + 2, 1], points[f + 3, 1]))
-        yhi = max(max(points[f, 1], points[f + 1, 1]), max(points[f + 2, 1], points[f + 3, 1]))
-        if cull:
-            keep = _holds_row(ylo * r, yhi * r) or _holds_row(xlo * r, xhi * r)
-            if not keep and sky > 0.0:
-                keep = _holds_row(ylo * sky - soff, yhi * sky - soff)
-            if not keep:
-                continue
-        ids[kept] = k
-        box[0, kept] = np.float32(xlo * r)
-        box[1, kept] = np.float32(xhi * r)
-        box[2, kept] = np.float32(ylo * r)
-        box[3, kept] = np.float32(yhi * r)
-        kept += 1
-    return ids[:kept].copy(), box[:, :kept].copy()
+        if keep[k]:
+            ids[e] = k
+            e += 1
+    return ids
+
+
+@njit(cache=True, nogil=True)
+def segment_boxes(points, first, ids, r):
+    """(4, K) float32 [x_lo, x_hi, y_lo, y_hi] in node units of the segments ids: what the
+    index computes as it goes (grid_index, select) without holding them."""
+    box = np.empty((4, ids.shape[0]), np.float32)
+    for k in range(ids.shape[0]):
+        box[0, k], box[1, k], box[2, k], box[3, k] = _node_box(points, first[ids[k]], r)
+    return box
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -65,16 +107,17 @@ def _cell(v, size, nb):
 
 
 @njit(cache=True, nogil=True)
-def grid_index(box, size, nbr, nbc):
-    """CSR of the boxes by the blocks (row-major, ``size`` nodes a side) they reach widened by
-    a node: (index (N,) int32 positions into the boxes, ascending within each block; starts
-    (nbr * nbc + 1,))."""
-    n = box.shape[1]
+def grid_index(points, first, ids, r, size, nbr, nbc):
+    """CSR of the segments ids by the blocks (row-major, ``size`` nodes a side) their boxes
+    (segment_boxes, at r nodes a source pixel) reach widened by a node: (index (N,) int32
+    positions into ids, ascending within each block; starts (nbr * nbc + 1,))."""
+    n = ids.shape[0]
     one = np.float32(1.0)
     starts = np.zeros(nbr * nbc + 1, np.int64)
     for k in range(n):
-        r0, r1 = _cell(box[2, k] - one, size, nbr), _cell(box[3, k] + one, size, nbr)
-        c0, c1 = _cell(box[0, k] - one, size, nbc), _cell(box[1, k] + one, size, nbc)
+        x0, x1, y0, y1 = _node_box(points, first[ids[k]], r)
+        r0, r1 = _cell(y0 - one, size, nbr), _cell(y1 + one, size, nbr)
+        c0, c1 = _cell(x0 - one, size, nbc), _cell(x1 + one, size, nbc)
         for b in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
                 starts[b * nbc + c + 1] += 1
@@ -83,8 +126,9 @@ def grid_index(box, size, nbr, nbc):
     index = np.empty(starts[-1], np.int32)
     pos = starts[:-1].copy()
     for k in range(n):
-        r0, r1 = _cell(box[2, k] - one, size, nbr), _cell(box[3, k] + one, size, nbr)
-        c0, c1 = _cell(box[0, k] - one, size, nbc), _cell(box[1, k] + one, size, nbc)
+        x0, x1, y0, y1 = _node_box(points, first[ids[k]], r)
+        r0, r1 = _cell(y0 - one, size, nbr), _cell(y1 + one, size, nbr)
+        c0, c1 = _cell(x0 - one, size, nbc), _cell(x1 + one, size, nbc)
         for b in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
                 index[pos[b * nbc + c]] = k
@@ -93,9 +137,9 @@ def grid_index(box, size, nbr, nbc):
 
 
 @njit(cache=True, nogil=True)
-def select(index, starts, nbc, b0, b1, c0, c1, box, x_lo, x_hi, y_lo, y_hi):
-    """Positions (ascending, each once) of the boxes listed in blocks rows b0..b1 x columns
-    c0..c1 that reach [x_lo, x_hi] x [y_lo, y_hi]."""
+def select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, x_lo, x_hi, y_lo, y_hi):
+    """Positions into ids (ascending, each once) of the segments listed in blocks rows
+    b0..b1 x columns c0..c1 whose boxes (segment_boxes) reach [x_lo, x_hi] x [y_lo, y_hi]."""
     lo = np.iinfo(np.int64).max
     hi = -1
     for b in range(b0, b1 + 1):
@@ -112,7 +156,8 @@ def select(index, starts, nbc, b0, b1, c0, c1, box, x_lo, x_hi, y_lo, y_hi):
             k = index[q]
             if mark[k - lo]:
                 continue
-            if box[1, k] >= x_lo and box[0, k] <= x_hi and box[3, k] >= y_lo and box[2, k] <= y_hi:
+            bx0, bx1, by0, by1 = _node_box(points, first[ids[k]], r)
+            if bx1 >= x_lo and bx0 <= x_hi and by1 >= y_lo and by0 <= y_hi:
                 mark[k - lo] = True
                 count += 1
     out = np.empty(count, np.int64)

@@ -11,21 +11,35 @@ def _holds_row(lo, hi):
     return np.floor(hi - 0.5 + CULL_SLACK) >= np.ceil(lo - 0.5 - CULL_SLACK)
 
 
-def segment_boxes(points, first, r, cull, sky, soff):
+def fill_firsts(offsets, out):
+    from ...geometry import segment_starts
+
+    out[:] = segment_starts(offsets)[0]
+    return out
+
+
+def _boxes(points, first):
     p = points[first[:, None] + np.arange(4)]  # (S, 4, 2)
-    xlo, xhi = p[:, :, 0].min(axis=1), p[:, :, 0].max(axis=1)
-    ylo, yhi = p[:, :, 1].min(axis=1), p[:, :, 1].max(axis=1)
+    return p[:, :, 0].min(axis=1), p[:, :, 0].max(axis=1), p[:, :, 1].min(axis=1), p[:, :, 1].max(axis=1)
+
+
+def kept_segments(points, first, r, cull, sky, soff):
+    xlo, xhi, ylo, yhi = _boxes(points, first)
     keep = np.ones(len(first), bool)
     if cull:
         keep = _holds_row(ylo * r, yhi * r) | _holds_row(xlo * r, xhi * r)
         if sky > 0:
             keep |= _holds_row(ylo * sky - soff, yhi * sky - soff)
-    ids = np.flatnonzero(keep)
-    box = np.stack([xlo[ids] * r, xhi[ids] * r, ylo[ids] * r, yhi[ids] * r]).astype(np.float32)
-    return ids, box
+    return np.flatnonzero(keep).astype(np.int32)
 
 
-def grid_index(box, size, nbr, nbc):
+def segment_boxes(points, first, ids, r):
+    xlo, xhi, ylo, yhi = _boxes(points, first[ids])
+    return np.stack([xlo * r, xhi * r, ylo * r, yhi * r]).astype(np.float32)
+
+
+def grid_index(points, first, ids, r, size, nbr, nbc):
+    box = segment_boxes(points, first, ids, r)
     r0 = np.clip(np.floor((box[2] - 1.0) / size), 0, nbr - 1).astype(np.int64)
     r1 = np.clip(np.floor((box[3] + 1.0) / size), 0, nbr - 1).astype(np.int64)
     c0 = np.clip(np.floor((box[0] - 1.0) / size), 0, nbc - 1).astype(np.int64)
@@ -39,8 +53,8 @@ def grid_index(box, size, nbr, nbc):
     return seg[order], np.searchsorted(bucket[order], np.arange(nbr * nbc + 1))
 
 
-def select(index, starts, nbc, b0, b1, c0, c1, box, x_lo, x_hi, y_lo, y_hi):
+def select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, x_lo, x_hi, y_lo, y_hi):
     parts = [index[starts[b * nbc + c0]:starts[b * nbc + c1 + 1]] for b in range(b0, b1 + 1)]
     idx = np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
-    bx = box[:, idx]
+    bx = segment_boxes(points, first, ids[idx], r)
     return idx[(bx[1] >= x_lo) & (bx[0] <= x_hi) & (bx[3] >= y_lo) & (bx[2] <= y_hi)]
