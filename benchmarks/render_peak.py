@@ -3,7 +3,9 @@ plus the output array for any output up to 8192 x 8192 from any wide-corpus mast
 
     python benchmarks/render_peak.py MASTER.isoph [...] [--cases 1x,w960,w3840,w8192]
 
-A case is ``1x`` or ``wN`` (N pixels wide, the shape kept). Prints a Markdown table: the
+A case is ``1x`` or ``wN`` (N pixels wide, the shape kept). The master is loaded as
+``isophote render`` loads it (``compact=True``: float32 points, the same pixels); ``--full``
+loads it as ``isophote.load(path)`` does by default (float64). Prints a Markdown table: the
 output's size and bytes, the process's peak RSS (the child's own ru_maxrss, imports included),
 wall seconds, and a sha256 of the pixels (equal before and after a change that keeps the
 output).
@@ -22,8 +24,8 @@ CHILD = r"""
 import hashlib, json, resource, sys
 import numpy as np
 import isophote
-master, case = sys.argv[1], sys.argv[2]
-vi = isophote.load(master)
+master, case, compact = sys.argv[1], sys.argv[2], sys.argv[3] == "compact"
+vi = isophote.load(master, compact=compact)
 out = vi.render(scale=1.0) if case == "1x" else vi.render(width=int(case[1:]))
 print(json.dumps(dict(shape=list(out.shape), nbytes=out.nbytes,
                       sha=hashlib.sha256(np.ascontiguousarray(out).tobytes()).hexdigest()[:16],
@@ -35,13 +37,15 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("masters", nargs="+")
     ap.add_argument("--cases", default="1x,w960,w3840,w8192")
+    ap.add_argument("--full", action="store_true", help="float64 points (isophote.load's default)")
     args = ap.parse_args(argv)
     print("| master | output | output MB | peak MB | peak - output MB | s | sha256 |")
     print("|---|---|---:|---:|---:|---:|---|")
     for m in args.masters:
         for case in args.cases.split(","):
             t = time.perf_counter()
-            p = subprocess.Popen([sys.executable, "-c", CHILD, m, case], stdout=subprocess.PIPE, text=True)
+            p = subprocess.Popen([sys.executable, "-c", CHILD, m, case, "full" if args.full else "compact"],
+                                 stdout=subprocess.PIPE, text=True)
             out, _ = p.communicate()
             if p.returncode:
                 print(f"| {os.path.basename(m)} | {case} | failed ({p.returncode}) | | | | |")

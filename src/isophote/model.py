@@ -94,7 +94,9 @@ class Channel:
     offsets : (C + 1,) int64 ndarray
         Contour k's chain is ``points[offsets[k]:offsets[k+1]]``.
     points : (P, 2) float64 ndarray
-        All chains, concatenated; each chain has 1 + 3n points.
+        All chains, concatenated; each chain has 1 + 3n points. float32 in a master loaded
+        with ``isophote.load(path, compact=True)`` for rendering alone (exact: the file's
+        1/64 grid; the renderer reads them as the same float64 values).
     border : (S,) bool ndarray
         Per segment (all contours' segments concatenated): True where the segment runs along
         the image border and is therefore not an isoline (never a distance source).
@@ -102,6 +104,7 @@ class Channel:
         Enclosing contour, -1 for the image frame.
     cap_band, cap_contour : (K,) int32 ndarray
     cap_xy : (K, 2) float64 ndarray
+        (float32 with the points in a compact master, exact as they are)
     cap_value : (K,) float64 ndarray
         Cap annotations (see the module docstring).
     base_band : int

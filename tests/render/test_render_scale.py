@@ -559,3 +559,80 @@ def test_a_preparation_holds_its_block_fields_within_one_budget(vi, forced_block
             most = max(most, held)
     caches = [c for k, c in prep.caches.items() if not (isinstance(k, tuple) and k[0] == "lock")]
     assert len(caches) >= 6 and most > budget // 2  # three zooms of each channel, sharing one budget
+
+
+def test_compact_master_renders_the_same_pixels(vi, camera, tmp_path, monkeypatch):
+    """A master loaded with compact=True holds its points and caps' positions as float32
+    (the same values: the file's 1/64 grid) and renders the same bytes as the float64 load,
+    one window and blocked, at 1/4, 1, 3 and 0.75, a crop, and a prepared tile."""
+    from isophote.render.tiles import Tiler
+
+    for master in (vi, camera):
+        path = tmp_path / "m.isoph"
+        master.save(path)
+        full, small = isophote.load(path), isophote.load(path, compact=True)
+        for a, b in zip(full.channels, small.channels):
+            assert a.points.dtype == np.float64 and b.points.dtype == np.float32
+            assert b.cap_xy.dtype == np.float32 and b.cap_value.dtype == np.float64
+            assert np.array_equal(a.points, b.points) and np.array_equal(a.cap_xy, b.cap_xy)
+            assert np.array_equal(a.offsets, b.offsets) and np.array_equal(a.cap_value, b.cap_value)
+        for forced in (False, True):
+            if forced:
+                _force_blocks(monkeypatch)
+            for opts in (dict(scale=0.25), dict(scale=1.0), dict(scale=3.0), dict(scale=0.75),
+                         dict(crop=(13, 7, 40, 30), scale=3.0)):
+                assert np.array_equal(small.render(**opts), full.render(**opts)), (forced, opts)
+            t = Tiler(small, zooms=(1.0, 2.0))
+            assert np.array_equal(t.tile(32, 16, 32, 32, 64, 64), full.render(crop=(32, 16, 32, 32), width=64, height=64))
+            monkeypatch.undo()
+
+
+def test_grid_to_float32_in_place_or_refused():
+    """The decoder's int64 grid values become float32 pixels in the first half of their own
+    memory; a value float32 would round (2**24 units, 2**18 px) or an array that is not the
+    decoder's own is refused (None: the points stay float64)."""
+    from isophote.format.isoph.layout import EXACT_GRID, grid_to_float32, grid_to_pixels
+
+    rng = np.random.default_rng(4)
+    q = rng.integers(-EXACT_GRID + 1, EXACT_GRID, (700_001, 2), dtype=np.int64)  # over two chunks
+    want = grid_to_pixels(q.copy())
+    got = grid_to_float32(q)
+    assert got.dtype == np.float32 and got.shape == q.shape and np.shares_memory(got, q)
+    assert np.array_equal(got.astype(np.float64), want)
+    assert grid_to_float32(np.array([[EXACT_GRID, 0]], np.int64)) is None
+    assert grid_to_float32(np.array([[-EXACT_GRID, 0]], np.int64)) is None
+    assert grid_to_float32(np.zeros((4, 2), np.int64)[::2]) is None  # not contiguous
+    assert grid_to_float32(np.zeros((0, 2), np.int64)).shape == (0, 2)
+
+
+def test_fields_computed_at_once_at_most_the_threads(vi, forced_blocks, monkeypatch):
+    """However many channels and groups run side by side, no more block fields are computed
+    at once than the process may use threads (strips.FIELD_SLOTS); the pixels are the same."""
+    import threading
+    import time
+
+    from isophote import threads
+
+    vi = dataclasses.replace(vi)  # without the preparation other tests gave it (no field held)
+    ref = vi.render(scale=1.0)
+    state = {"now": 0, "most": 0}
+    lock = threading.Lock()
+    field = blocks.ChannelLevel.field
+
+    def counted(self, *args):
+        with lock:
+            state["now"] += 1
+            state["most"] = max(state["most"], state["now"])
+        time.sleep(0.002)  # long enough for the other workers to try to start theirs
+        try:
+            return field(self, *args)
+        finally:
+            with lock:
+                state["now"] -= 1
+
+    monkeypatch.setattr(blocks.ChannelLevel, "field", counted)
+    for n in (1, 2):
+        state["most"] = 0
+        with threads.limited(n):
+            assert np.array_equal(vi.render(scale=1.0), ref)
+        assert 1 <= state["most"] <= threads.available(n)

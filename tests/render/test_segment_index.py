@@ -41,14 +41,14 @@ def test_index_kernels_match_their_twins(seed):
             b0, c0 = rng.integers(0, nbr), rng.integers(0, nbc)
             b1, c1 = rng.integers(b0, nbr), rng.integers(c0, nbc)
             lims = (float(c0 * size - 1), float((c1 + 1) * size + 1), float(b0 * size - 1), float((b1 + 1) * size + 1))
-            got = K.select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, *lims)
-            assert np.array_equal(got, R.select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, *lims))
+            got = K.select(index, starts, nbc, b0, b1, c0, c1, points, first, r, *lims)
+            assert np.array_equal(got, R.select(index, starts, nbc, b0, b1, c0, c1, points, first, r, *lims))
             assert np.all(np.diff(got) > 0)
             # the known answer: every kept segment whose box reaches the blocks and the limits
             reach = ((box[1] >= lims[0]) & (box[0] <= lims[1]) & (box[3] >= lims[2]) & (box[2] <= lims[3])
                      & (box[3] + 1 >= b0 * size) & (box[2] - 1 < (b1 + 1) * size)
                      & (box[1] + 1 >= c0 * size) & (box[0] - 1 < (c1 + 1) * size))
-            assert np.array_equal(got, np.flatnonzero(reach))
+            assert np.array_equal(got, ids[np.flatnonzero(reach)])
 
 
 def test_flatten_selected_is_flatten_of_those_segments():

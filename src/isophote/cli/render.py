@@ -148,7 +148,7 @@ def run_render(args) -> int:
     job = Job(args)
     job.progress(f"reading {shown(args.input, output=False)}")
     with input_path(args.input) as path:
-        vi = load(path)
+        vi = load(path, compact=True)  # only rendered: float32 points, the same pixels
     check_format("out" + ext, opts.depth, len(vi.channels))  # Y[A] or YUV[A]: 1 to 4 samples
     check_crop(opts.crop, vi)
     opts = fit_box(opts, vi, args.stretch)

@@ -240,8 +240,9 @@ def raster_extensions():
     return FORMATS
 
 
-def load(path):
-    """An .isoph, or an SVG / SVGZ written by isophote (told by its first bytes)."""
+def load(path, compact: bool = False):
+    """An .isoph, or an SVG / SVGZ written by isophote (told by its first bytes); with
+    ``compact``, for a master that is only rendered (isophote.load)."""
     from .. import load as _load
 
-    return _load(path)
+    return _load(path, compact=compact)

@@ -212,7 +212,7 @@ class ChannelLevel:
             list(pool.map(block_row, range(nbr)))
         band += np.int16(ch.base_band)
         labels, m = label_nodes(band)
-        self.gcapv = cap_values(band, labels, m, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
+        self.gcapv = cap_values(band, labels, m, *cap_positions(ch, r),
                                 ch.cap_band.astype(np.int64), ch.cap_value)
         # what the windows read of the level's bands and labels is kept, not the whole (6
         # bytes a node: 98 MB a channel at 1x for 16 MP): the band of each window's first
@@ -340,7 +340,7 @@ class ChannelLevel:
                     wide = self._window_caps(labels, nreg, i0, j0, np.ascontiguousarray(gd[:, s]))
                     dmax[:, s] = np.where(leaves, np.maximum(dmax[:, s], wide), dmax[:, s])
         else:
-            dmax, capv = region_caps(F, band, labels, nreg, ch.cap_xy[:, 0] * r, ch.cap_xy[:, 1] * r,
+            dmax, capv = region_caps(F, band, labels, nreg, *cap_positions(ch, r),
                                      ch.cap_band.astype(np.int64), ch.cap_value)
         ramp = float(ch.cap_ramp) * r
         # the node fill where samples read it: a blocked window's samples lie in its block, and
@@ -368,6 +368,12 @@ class ChannelLevel:
                        ramp, corr)
         nf.origin = (i0, j0)
         return nf
+
+
+def cap_positions(ch, r: float):
+    """(x, y) float64 of the caps' samples in node units at r nodes a source pixel, computed
+    in float64 from cap_xy whatever its dtype (float32 in a compact master: the same values)."""
+    return np.multiply(ch.cap_xy[:, 0], r, dtype=np.float64), np.multiply(ch.cap_xy[:, 1], r, dtype=np.float64)
 
 
 def split(pos: np.ndarray, block: int, nb: int) -> list[tuple[int, int, int]]:

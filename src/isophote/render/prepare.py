@@ -4,9 +4,9 @@ Without it every render builds what it needs and lets it go. With it (``prepare(
 kept with the VectorImage until it is collected) renders and tiles reuse, per channel:
 - each segment's first control point in the chains (4 bytes a segment);
 - each level's ChannelLevel (one per zoom): its segment index (segment_index.py: the
-  segments that cross its node rows or columns or its sample rows and a CSR list of them
-  per block, about 10 bytes a kept segment; their boxes are computed where tested) and for a blocked level the canvas-wide
-  regions (6 bytes a node: 96 MB a channel at 1x for 16 MP). Making one costs a pass over
+  segments that cross its node rows or columns or its sample rows, as a list of their ids
+  per block, about 4 bytes a kept segment; their boxes are computed where tested) and for
+  a blocked level the canvas-wide regions (6 bytes a node: 96 MB a channel at 1x for 16 MP). Making one costs a pass over
   the channel's segments, flattened and rasterised on the level's node rows (no crossings)
   and a labelling of the level: about a fifth of a render's geometry at that zoom;
 - for a blocked level that crops read, the windings of every sample row left of each

@@ -35,23 +35,33 @@ class SegmentIndex:
 
     def __init__(self, points, first, border, r: float, block: int, nbr: int, nbc: int, sample_rows=(0.0, 0.0)):
         self.points, self.first, self.border, self.r = points, first, border, float(r)
-        self.ids = kept_segments(points, first, self.r, True, float(sample_rows[0]), float(sample_rows[1]))
+        self.sample_rows = float(sample_rows[0]), float(sample_rows[1])
         self.block, self.nbr, self.nbc = block, nbr, nbc
-        if block:
-            self.index, self.starts = grid_index(points, first, self.ids, self.r, block, nbr, nbc)
+        self._ids = self._kept()
+        if block:  # the blocks' lists hold the segments' ids: a blocked level keeps no list of them
+            self.index, self.starts = grid_index(points, first, self._ids, self.r, block, nbr, nbc)
+            self._ids = None
+
+    def _kept(self) -> np.ndarray:
+        return kept_segments(self.points, self.first, self.r, True, *self.sample_rows)
+
+    @property
+    def ids(self) -> np.ndarray:
+        """The kept segments (ascending): held by a one-window level, made again (a pass over
+        the segments) where a blocked one is asked (a preparation's row windings)."""
+        return self._ids if self._ids is not None else self._kept()
 
     @property
     def nbytes(self) -> int:
-        return self.ids.nbytes + (self.index.nbytes + self.starts.nbytes if self.block else 0)
+        return self.index.nbytes + self.starts.nbytes if self.block else self._ids.nbytes
 
     def _select(self, b0, b1, c0, c1, x_lo, x_hi, y_lo, y_hi) -> np.ndarray:
         b0, b1 = max(b0, 0), min(b1, self.nbr - 1)
         c0, c1 = max(c0, 0), min(c1, self.nbc - 1)
         if b0 > b1 or c0 > c1:
             return np.zeros(0, np.int64)
-        pos = select(self.index, self.starts, self.nbc, b0, b1, c0, c1, self.points, self.first, self.ids, self.r,
-                     float(x_lo), float(x_hi), float(y_lo), float(y_hi))
-        return self.ids[pos]
+        return select(self.index, self.starts, self.nbc, b0, b1, c0, c1, self.points, self.first, self.r,
+                      float(x_lo), float(x_hi), float(y_lo), float(y_hi))
 
     def window(self, i0: int, j0: int, n: int, m: int) -> np.ndarray:
         """Segments (ascending ids) whose box reaches the window's nodes widened by a node."""

@@ -89,6 +89,31 @@ class FieldBudget:
                 self.bytes -= got[1]
 
 
+class FieldSlots:
+    """At most as many block fields computed at once in the process as it may use threads
+    (threads.available, asked at each start): the channels' strips run side by side, each
+    prefetching a group, and without this up to a group per channel (six windows' working
+    arrays, about 12 MB each at 1x) were made at once on two processors. A field does not
+    depend on when it is computed."""
+
+    def __init__(self):
+        self.cv = threading.Condition()
+        self.busy = 0
+
+    def __enter__(self):
+        with self.cv:
+            self.cv.wait_for(lambda: self.busy < threads.available())
+            self.busy += 1
+
+    def __exit__(self, *exc):
+        with self.cv:
+            self.busy -= 1
+            self.cv.notify()
+
+
+FIELD_SLOTS = FieldSlots()
+
+
 class BlockCache:
     """The fields of one channel's blocks, computed on demand (thread-safe, one at a time),
     within ``capacity`` bytes, or within a FieldBudget shared with other caches."""
@@ -128,7 +153,8 @@ class BlockCache:
                 self._put(k, nf)
 
     def _field(self, key):
-        return self.cl.field(key[0], key[1], self.distance, self.smooth, self.sharpen)
+        with FIELD_SLOTS:
+            return self.cl.field(key[0], key[1], self.distance, self.smooth, self.sharpen)
 
     def _put(self, key, nf):
         self.blocks[key] = nf

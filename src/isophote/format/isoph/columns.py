@@ -71,8 +71,8 @@ def _check_limit(q: np.ndarray, limit: int, what: str) -> None:
         raise FormatError(f"{what} lies beyond the format's limit of +-{limit} (1/{QUANT} units)")
 
 
-def decode_column_channel(cols: Columns, info: ChannelInfo):
-    """One channel off the column layout."""
+def decode_column_channel(cols: Columns, info: ChannelInfo, compact: bool = False):
+    """One channel off the column layout (compact: layout.to_channel's)."""
     label, c, s, k = info.name, info.n_contours, info.n_segments, info.n_caps
     level = np.cumsum(unzigzag(cols.column(c, 2)))
     nseg = cols.column(c, 4) + 1
@@ -104,4 +104,4 @@ def decode_column_channel(cols: Columns, info: ChannelInfo):
 
     if np.any(border_bits[s:]):
         raise FormatError(f"channel {label}: padding bits after the border flags are not zero")
-    return to_channel(info, level, offsets, q, border_bits[:s], parent, cap_band, cap_contour, cq, vq)
+    return to_channel(info, level, offsets, q, border_bits[:s], parent, cap_band, cap_contour, cq, vq, compact)

@@ -103,20 +103,51 @@ def grid_to_pixels(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq) -> Channel:
+EXACT_GRID = 1 << 24  # 1/64 units: grid values below this are exact in float32 (24 bits), 2**18 px
+
+
+def grid_to_float32(q: np.ndarray):
+    """``(q / QUANT).astype(float32)``, the same values as grid_to_pixels' (q below
+    EXACT_GRID in magnitude), in the first half of q's own memory where q is a writeable
+    C-contiguous int64 array (the decoders' own): each chunk of rows is converted before it
+    is written, over rows already read; the second half's pages are given back
+    (shared/heap.release_read). None where float32 would round a value or q is not such an
+    array."""
+    from ...shared.heap import release_read
+
+    n = q.shape[0] if q.ndim == 2 else 0
+    if q.dtype != np.int64 or q.ndim != 2 or not q.flags.c_contiguous or not q.flags.writeable or not _exact(q):
+        return None
+    out = q.reshape(-1).view(np.float32)[: 2 * n].reshape(n, 2)
+    for a in range(0, n, CONVERT_CHUNK):
+        out[a : a + CONVERT_CHUNK] = q[a : a + CONVERT_CHUNK].astype(np.float32) / np.float32(QUANT)
+    release_read(q.reshape(-1).view(np.uint8), 8 * n, 16 * n)
+    return out
+
+
+def _exact(q: np.ndarray) -> bool:
+    """Whether grid values q are exact in float32 (below EXACT_GRID in magnitude)."""
+    return q.size == 0 or max(-int(q.min()), int(q.max())) < EXACT_GRID
+
+
+def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq, compact=False) -> Channel:
     """A Channel in canonical dtypes from decoded integers (1/64 units); q, the decoder's
-    own, becomes the points in place."""
+    own, becomes the points in place: float64, or with ``compact`` float32 where exact
+    (grid_to_float32; its freed half before the caps' arrays are made), and the caps'
+    positions float32 with them where exact."""
+    points = grid_to_float32(q) if compact else None
     return Channel(
         name=info.name,
         levels=info.levels.copy(),
         contour_level=level.astype(np.int32),
         offsets=offsets,
-        points=grid_to_pixels(q),
+        points=grid_to_pixels(q) if points is None else points,
         border=border.astype(bool),
         parent=parent.astype(np.int32),
         cap_band=cap_band.astype(np.int32),
         cap_contour=cap_contour.astype(np.int32),
-        cap_xy=cq.astype(np.float64) / QUANT,
+        cap_xy=(cq.astype(np.float32) / np.float32(QUANT) if points is not None and _exact(cq)
+                else cq.astype(np.float64) / QUANT),
         cap_value=vq.astype(np.float64) / QUANT,
         base_band=info.base_band,
         tone=None if info.tone is None else info.tone.copy(),

@@ -134,8 +134,9 @@ RANGE_ERRORS = {
 
 
 def decode_range_channel(item):
-    """One channel off its range-coded bytes: ``item`` is (ChannelInfo, bytes, version)."""
-    info, data, version = item
+    """One channel off its range-coded bytes: ``item`` is (ChannelInfo, bytes, version[,
+    compact]) (compact: layout.to_channel's)."""
+    info, data, version, *compact = item
     c, s, k = info.n_contours, info.n_segments, info.n_caps
     decode = entropy.decode_channel if version < 5 else decode_parts
     (status, where, extra, level, nseg, parent, q, border, cap_contour, cap_band, cq, vq) = \
@@ -146,7 +147,7 @@ def decode_range_channel(item):
     check_semantics(info.name, info.levels.shape[0], level, parent, cap_band, cap_contour)
     offsets = np.zeros(c + 1, np.int64)
     np.cumsum(3 * nseg + 1, out=offsets[1:])
-    return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq)
+    return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq, *compact)
 
 
 def decode_parts(data, c, s, k, g, s_p, s_c, s_v, levels, base_band, version, workers=None):

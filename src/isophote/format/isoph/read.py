@@ -37,10 +37,14 @@ def loads(data) -> VectorImage:
     return guarded(parse)
 
 
-def load(path) -> VectorImage:
+def load(path, compact: bool = False) -> VectorImage:
     """Read an .isoph file. FormatError (or LimitError) for unreadable or malformed files.
 
-    The header is read and checked first; then exactly the payload it declares.
+    The header is read and checked first; then exactly the payload it declares. With
+    ``compact`` the control points are float32 where that holds them exactly (every
+    coordinate under 2**18 px: layout.grid_to_float32), half their memory: for rendering,
+    whose kernels read them as the float64 values they are (the same pixels); edits and
+    warps compute in the points' dtype, so they take a master loaded without it.
     """
     where = f"{os.fspath(path)}: "
     try:
@@ -53,23 +57,24 @@ def load(path) -> VectorImage:
         raise FormatError(f"{where}cannot read: {e.strerror or e}") from None
     if len(payload) != h.payload_size:
         raise FormatError(f"{where}truncated .isoph file: the file shrank while being read")
-    return with_where(where, lambda: guarded(lambda: decode(h, payload)))
+    return with_where(where, lambda: guarded(lambda: decode(h, payload, compact)))
 
 
-def decode(h: Header, payload) -> VectorImage:
-    """The image from a checked header and its payload (bytes or memoryview)."""
+def decode(h: Header, payload, compact: bool = False) -> VectorImage:
+    """The image from a checked header and its payload (bytes or memoryview); ``compact``:
+    float32 points where exact (load)."""
     return_freed_memory()  # glibc: the decoders' temporaries go back to the system (shared/heap.py)
     if zlib.crc32(payload) != h.payload_crc:
         raise FormatError("payload checksum mismatch (corrupted payload)")
     if h.compression == COMPRESSION_RANGE:
         chunks, pos = [], 0
         for info in h.channels:
-            chunks.append((info, np.frombuffer(payload, np.uint8, info.coded_size, pos).copy(), h.version))
+            chunks.append((info, np.frombuffer(payload, np.uint8, info.coded_size, pos).copy(), h.version, compact))
             pos += info.coded_size
         channels = tuple(map_channels(decode_range_channel, chunks, sum(c.n_segments for c in h.channels)))
     else:
         cols = Columns(_decompress(payload, h.compression, h.raw_size))
-        channels = tuple(decode_column_channel(cols, info) for info in h.channels)
+        channels = tuple(decode_column_channel(cols, info, compact) for info in h.channels)
     return VectorImage(
         width=h.width, height=h.height, colour=h.colour, channels=channels,
         source_depth=h.source_depth, meta=h.meta,

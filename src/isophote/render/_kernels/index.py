@@ -108,9 +108,9 @@ def _cell(v, size, nb):
 
 @njit(cache=True, nogil=True)
 def grid_index(points, first, ids, r, size, nbr, nbc):
-    """CSR of the segments ids by the blocks (row-major, ``size`` nodes a side) their boxes
-    (segment_boxes, at r nodes a source pixel) reach widened by a node: (index (N,) int32
-    positions into ids, ascending within each block; starts (nbr * nbc + 1,))."""
+    """CSR of the segments ids (ascending) by the blocks (row-major, ``size`` nodes a side)
+    their boxes (segment_boxes, at r nodes a source pixel) reach widened by a node: (index
+    (N,) int32 segment ids, ascending within each block; starts (nbr * nbc + 1,))."""
     n = ids.shape[0]
     one = np.float32(1.0)
     starts = np.zeros(nbr * nbc + 1, np.int64)
@@ -131,15 +131,15 @@ def grid_index(points, first, ids, r, size, nbr, nbc):
         c0, c1 = _cell(x0 - one, size, nbc), _cell(x1 + one, size, nbc)
         for b in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
-                index[pos[b * nbc + c]] = k
+                index[pos[b * nbc + c]] = ids[k]
                 pos[b * nbc + c] += 1
     return index, starts
 
 
 @njit(cache=True, nogil=True)
-def select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, x_lo, x_hi, y_lo, y_hi):
-    """Positions into ids (ascending, each once) of the segments listed in blocks rows
-    b0..b1 x columns c0..c1 whose boxes (segment_boxes) reach [x_lo, x_hi] x [y_lo, y_hi]."""
+def select(index, starts, nbc, b0, b1, c0, c1, points, first, r, x_lo, x_hi, y_lo, y_hi):
+    """The segments (ascending ids, each once) listed in blocks rows b0..b1 x columns
+    c0..c1 (grid_index) whose boxes (segment_boxes) reach [x_lo, x_hi] x [y_lo, y_hi]."""
     lo = np.iinfo(np.int64).max
     hi = -1
     for b in range(b0, b1 + 1):
@@ -156,7 +156,7 @@ def select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, x_lo, x_hi
             k = index[q]
             if mark[k - lo]:
                 continue
-            bx0, bx1, by0, by1 = _node_box(points, first[ids[k]], r)
+            bx0, bx1, by0, by1 = _node_box(points, first[k], r)
             if bx1 >= x_lo and bx0 <= x_hi and by1 >= y_lo and by0 <= y_hi:
                 mark[k - lo] = True
                 count += 1

@@ -50,11 +50,11 @@ def grid_index(points, first, ids, r, size, nbr, nbc):
     k = np.arange(len(seg)) - np.repeat(np.cumsum(count) - count, count)  # rank within its segment
     bucket = (r0[seg] + k // ncol[seg]) * nbc + c0[seg] + k % ncol[seg]
     order = np.argsort(bucket, kind="stable")
-    return seg[order], np.searchsorted(bucket[order], np.arange(nbr * nbc + 1))
+    return ids[seg[order]].astype(np.int32), np.searchsorted(bucket[order], np.arange(nbr * nbc + 1))
 
 
-def select(index, starts, nbc, b0, b1, c0, c1, points, first, ids, r, x_lo, x_hi, y_lo, y_hi):
+def select(index, starts, nbc, b0, b1, c0, c1, points, first, r, x_lo, x_hi, y_lo, y_hi):
     parts = [index[starts[b * nbc + c0]:starts[b * nbc + c1 + 1]] for b in range(b0, b1 + 1)]
-    idx = np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
-    bx = segment_boxes(points, first, ids[idx], r)
+    idx = np.unique(np.concatenate(parts)).astype(np.int64) if parts else np.zeros(0, np.int64)
+    bx = segment_boxes(points, first, idx, r)
     return idx[(bx[1] >= x_lo) & (bx[0] <= x_hi) & (bx[3] >= y_lo) & (bx[2] <= y_hi)]
