@@ -573,6 +573,41 @@ def test_mutated_real_files(seeds, seed, which, other, mode):
     check_isoph(data, f"mutated ({mode})", seed=seed)
 
 
+def _outcome(data: bytes, compact: bool):
+    """isoph.loads with the points compact (int32 off the range coder, then float32) or not:
+    the image, or the error's type and message."""
+    from isophote.format.isoph.header import guarded, parse_header
+    from isophote.format.isoph.read import decode
+
+    def parse():
+        h = parse_header(data, len(data))
+        return decode(h, memoryview(data)[h.header_size:], compact)
+
+    try:
+        return guarded(parse)
+    except (FormatError, LimitError) as e:
+        return type(e).__name__, str(e)
+
+
+@budget(150)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 2**16), st.sampled_from(["raw", "raw", "both crcs"]))
+def test_compact_loads_refuse_and_accept_what_full_loads_do(seeds, seed, which, mode):
+    """A mutated real file loaded compact (its range-coded points decoded as int32, then
+    float32) gives the error the float64 load gives, or the same values: the decoder checks
+    every value against the format's limit before it stores it, so none wraps."""
+    data = mutate(seeds[which % len(seeds)], seeds[0], seed, mode)
+    full, small = _outcome(data, False), _outcome(data, True)
+    if isinstance(full, tuple):
+        assert small == full
+        return
+    assert not isinstance(small, tuple), small
+    for a, b in zip(full.channels, small.channels):
+        assert np.array_equal(a.points, b.points) and np.array_equal(a.cap_xy, b.cap_xy)
+        assert np.array_equal(a.offsets, b.offsets) and np.array_equal(a.border, b.border)
+        assert np.array_equal(a.cap_value, b.cap_value) and np.array_equal(a.parent, b.parent)
+    COUNTS["compact: same values"] += 1
+
+
 def test_truncations_and_flips_of_an_encoder_file_at_every_byte(seeds):
     """Every prefix of a real file, and the file with each byte in turn inverted: a
     FormatError every time (the checksums make a single corrupted byte always visible)."""

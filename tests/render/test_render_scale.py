@@ -567,9 +567,11 @@ def test_compact_master_renders_the_same_pixels(vi, camera, tmp_path, monkeypatc
     one window and blocked, at 1/4, 1, 3 and 0.75, a crop, and a prepared tile."""
     from isophote.render.tiles import Tiler
 
-    for master in (vi, camera):
+    from isophote.format.isoph import save
+
+    for master, compression in ((vi, "range"), (camera, "range"), (camera, "zlib")):
         path = tmp_path / "m.isoph"
-        master.save(path)
+        save(master, path, compression=compression)  # range: decoded as int32; zlib: the column layout, int64
         full, small = isophote.load(path), isophote.load(path, compact=True)
         for a, b in zip(full.channels, small.channels):
             assert a.points.dtype == np.float64 and b.points.dtype == np.float32
@@ -594,13 +596,15 @@ def test_grid_to_float32_in_place_or_refused():
     from isophote.format.isoph.layout import EXACT_GRID, grid_to_float32, grid_to_pixels
 
     rng = np.random.default_rng(4)
-    q = rng.integers(-EXACT_GRID + 1, EXACT_GRID, (700_001, 2), dtype=np.int64)  # over two chunks
-    want = grid_to_pixels(q.copy())
-    got = grid_to_float32(q)
-    assert got.dtype == np.float32 and got.shape == q.shape and np.shares_memory(got, q)
-    assert np.array_equal(got.astype(np.float64), want)
-    assert grid_to_float32(np.array([[EXACT_GRID, 0]], np.int64)) is None
-    assert grid_to_float32(np.array([[-EXACT_GRID, 0]], np.int64)) is None
+    for dtype in (np.int64, np.int32):
+        q = rng.integers(-EXACT_GRID + 1, EXACT_GRID, (700_001, 2)).astype(dtype)  # over two chunks
+        want = grid_to_pixels(q.copy())
+        got = grid_to_float32(q)
+        assert got.dtype == np.float32 and got.shape == q.shape and np.shares_memory(got, q)
+        assert np.array_equal(got.astype(np.float64), want)
+        assert grid_to_float32(np.array([[EXACT_GRID, 0]], dtype)) is None
+        assert grid_to_float32(np.array([[-EXACT_GRID, 0]], dtype)) is None
+    assert grid_to_float32(np.zeros((4, 2), np.int16)) is None
     assert grid_to_float32(np.zeros((4, 2), np.int64)[::2]) is None  # not contiguous
     assert grid_to_float32(np.zeros((0, 2), np.int64)).shape == (0, 2)
 

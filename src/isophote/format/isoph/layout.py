@@ -108,20 +108,22 @@ EXACT_GRID = 1 << 24  # 1/64 units: grid values below this are exact in float32 
 
 def grid_to_float32(q: np.ndarray):
     """``(q / QUANT).astype(float32)``, the same values as grid_to_pixels' (q below
-    EXACT_GRID in magnitude), in the first half of q's own memory where q is a writeable
-    C-contiguous int64 array (the decoders' own): each chunk of rows is converted before it
-    is written, over rows already read; the second half's pages are given back
-    (shared/heap.release_read). None where float32 would round a value or q is not such an
-    array."""
+    EXACT_GRID in magnitude), in q's own memory where q is a writeable C-contiguous int32 or
+    int64 (N, 2) array (the decoders' own), a chunk of rows at a time: each chunk is
+    converted before it is written, over rows already read (int64: into the first half,
+    whose second half's pages are then given back, shared/heap.release_read). None where
+    float32 would round a value or q is not such an array."""
     from ...shared.heap import release_read
 
-    n = q.shape[0] if q.ndim == 2 else 0
-    if q.dtype != np.int64 or q.ndim != 2 or not q.flags.c_contiguous or not q.flags.writeable or not _exact(q):
+    if q.dtype not in (np.int32, np.int64) or q.ndim != 2 or not q.flags.c_contiguous or not q.flags.writeable \
+            or not _exact(q):
         return None
+    n = q.shape[0]
     out = q.reshape(-1).view(np.float32)[: 2 * n].reshape(n, 2)
     for a in range(0, n, CONVERT_CHUNK):
         out[a : a + CONVERT_CHUNK] = q[a : a + CONVERT_CHUNK].astype(np.float32) / np.float32(QUANT)
-    release_read(q.reshape(-1).view(np.uint8), 8 * n, 16 * n)
+    if q.dtype == np.int64:
+        release_read(q.reshape(-1).view(np.uint8), 8 * n, 16 * n)
     return out
 
 

@@ -138,9 +138,9 @@ def decode_range_channel(item):
     compact]) (compact: layout.to_channel's)."""
     info, data, version, *compact = item
     c, s, k = info.n_contours, info.n_segments, info.n_caps
-    decode = entropy.decode_channel if version < 5 else decode_parts
+    args = (data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version)
     (status, where, extra, level, nseg, parent, q, border, cap_contour, cap_band, cq, vq) = \
-        decode(data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version)
+        entropy.decode_channel(*args) if version < 5 else decode_parts(*args, points32=bool(compact and compact[0]))
     if status != entropy.OK:
         msg = RANGE_ERRORS[status].format(where=where, extra=extra, c=c, s=s, L=info.levels.shape[0])
         raise FormatError(f"channel {info.name}: {msg}")
@@ -150,19 +150,21 @@ def decode_range_channel(item):
     return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq, *compact)
 
 
-def decode_parts(data, c, s, k, g, s_p, s_c, s_v, levels, base_band, version, workers=None):
+def decode_parts(data, c, s, k, g, s_p, s_c, s_v, levels, base_band, version, workers=None, points32=False):
     """entropy.decode_channel for layout 5 (uint8 data): the channel's stream (contours, the
     points' first part, caps), its other parts of points, each its own stream, their sizes
     (u32) and their count (u32) last. The parts are decoded side by side, in ``workers``
     threads (None: the processors'); each writes its own rows of the points, so the result
-    does not depend on how many."""
+    does not depend on how many. ``points32``: the points int32 (half the bytes, for a
+    compact load: layout.grid_to_float32); the decoder checks every value against the
+    format's limit (2**30) before it stores it, so none wraps."""
     n = data.shape[0]
     count = int.from_bytes(data[n - 4:n].tobytes(), "little") if n >= 4 else -1
     table = n - 4 - 4 * count
     fits = 0 <= count <= max(c - 1, 0) and table >= 0
     sizes = np.frombuffer(data[table:n - 4].tobytes(), "<u4").astype(np.int64) if fits else np.zeros(0, np.int64)
     main_len = table - int(sizes.sum())
-    q = np.zeros((3 * s + c, 2), np.int64)
+    q = np.zeros((3 * s + c, 2), np.int32 if points32 else np.int64)
     border = np.zeros(s, np.uint8)
     caps = entropy.new_caps(k)
     if not fits or main_len < 0:
