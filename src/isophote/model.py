@@ -104,9 +104,9 @@ class Channel:
         Enclosing contour, -1 for the image frame.
     cap_band, cap_contour : (K,) int32 ndarray
     cap_xy : (K, 2) float64 ndarray
-        (float32 with the points in a compact master, exact as they are)
     cap_value : (K,) float64 ndarray
-        Cap annotations (see the module docstring).
+        Cap annotations (see the module docstring); both float32 with the points in a
+        compact master, exact as they are.
     base_band : int
         Band of the root region (see the module docstring).
     tone : (K, 2) float64 ndarray or None

@@ -575,7 +575,7 @@ def test_compact_master_renders_the_same_pixels(vi, camera, tmp_path, monkeypatc
         full, small = isophote.load(path), isophote.load(path, compact=True)
         for a, b in zip(full.channels, small.channels):
             assert a.points.dtype == np.float64 and b.points.dtype == np.float32
-            assert b.cap_xy.dtype == np.float32 and b.cap_value.dtype == np.float64
+            assert b.cap_xy.dtype == np.float32 and b.cap_value.dtype == np.float32
             assert np.array_equal(a.points, b.points) and np.array_equal(a.cap_xy, b.cap_xy)
             assert np.array_equal(a.offsets, b.offsets) and np.array_equal(a.cap_value, b.cap_value)
         for forced in (False, True):

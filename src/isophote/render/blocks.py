@@ -217,10 +217,13 @@ class ChannelLevel:
         # what the windows read of the level's bands and labels is kept, not the whole (6
         # bytes a node: 98 MB a channel at 1x for 16 MP): the band of each window's first
         # column, the labels as runs along the rows (0.36 runs a node on the mosaic's luma,
-        # 0.07 on its chroma: 8 bytes a run), and both at the coarse field's node centres
-        # (a level whose labels change more often than every second node keeps them whole:
-        # never more than the 4 bytes a node that limits_render counts)
+        # 0.07 on its chroma: 8 bytes a run, 6 where the columns fit int16), and both at the
+        # coarse field's node centres (a level whose labels change more often than every
+        # second node keeps them whole: never more than the 4 bytes a node that limits_render
+        # counts)
         runs = row_runs(labels)
+        if lv.nc <= np.iinfo(np.int16).max:
+            runs = (runs[0], runs[1].astype(np.int16), runs[2])
         self.gruns, self.glabels = (runs, None) if len(runs[1]) <= labels.size * MAX_RUNS else (None, labels)
         first_cols = sorted({lv.window(0, bj)[1] for bj in range(lv.blocks()[1])})
         self.gband_cols = {j: np.ascontiguousarray(band[:, j]) for j in first_cols}

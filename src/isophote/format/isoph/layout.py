@@ -136,7 +136,7 @@ def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, c
     """A Channel in canonical dtypes from decoded integers (1/64 units); q, the decoder's
     own, becomes the points in place: float64, or with ``compact`` float32 where exact
     (grid_to_float32; its freed half before the caps' arrays are made), and the caps'
-    positions float32 with them where exact."""
+    positions and values float32 with them where exact."""
     points = grid_to_float32(q) if compact else None
     return Channel(
         name=info.name,
@@ -150,7 +150,8 @@ def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, c
         cap_contour=cap_contour.astype(np.int32),
         cap_xy=(cq.astype(np.float32) / np.float32(QUANT) if points is not None and _exact(cq)
                 else cq.astype(np.float64) / QUANT),
-        cap_value=vq.astype(np.float64) / QUANT,
+        cap_value=(vq.astype(np.float32) / np.float32(QUANT) if points is not None and _exact(vq)
+                   else vq.astype(np.float64) / QUANT),
         base_band=info.base_band,
         tone=None if info.tone is None else info.tone.copy(),
         cap_ramp=float(info.cap_ramp),
