@@ -2,7 +2,8 @@
 
 One run measures, each case in a fresh subprocess (peak RSS = that process's ru_maxrss):
 Pillow's PNG decode + Lanczos resize of the original to 3840 x 2400 and to 960 wide, and
-isophote's load + render of the master to the same sizes and at 1x; then, in one process,
+isophote's load (compact, as `isophote render` and the server load) + render of the master to
+the same sizes and at 1x; then, in one process,
 the preparation and N random 256 x 256 tiles over zooms 1:64 .. 8:1 (powers of two, tiles
 on each zoom's grid), with p50/p95/p99. Ratios are against Pillow measured in the same run
 (the machine is shared: absolute times are noisy).
@@ -38,7 +39,7 @@ if case["kind"] == "pillow":
     res = dict(load=t1 - t0, work=t2 - t1, shape=[h, w])
 elif case["kind"] == "render":
     import isophote
-    vi = isophote.load(case["master"])
+    vi = isophote.load(case["master"], compact=True)  # as isophote render and the server load it
     t1 = time.perf_counter()
     out = vi.render(**case["options"])
     t2 = time.perf_counter()
@@ -48,7 +49,7 @@ else:
     import numpy as np
     import isophote
     from isophote.render.tiles import Tiler
-    vi = isophote.load(case["master"])
+    vi = isophote.load(case["master"], compact=True)  # as isophote render and the server load it
     zooms = [2.0 ** k for k in range(-6, 4)]
     t1 = time.perf_counter()
     tiler = Tiler(vi, zooms=zooms)  # every zoom the tiles ask for

@@ -565,9 +565,9 @@ def test_compact_master_renders_the_same_pixels(vi, camera, tmp_path, monkeypatc
     """A master loaded with compact=True holds its points and caps' positions as float32
     (the same values: the file's 1/64 grid) and renders the same bytes as the float64 load,
     one window and blocked, at 1/4, 1, 3 and 0.75, a crop, and a prepared tile."""
-    from isophote.render.tiles import Tiler
-
     from isophote.format.isoph import save
+    from isophote.geometry import chains
+    from isophote.render.tiles import Tiler
 
     for master, compression in ((vi, "range"), (camera, "range"), (camera, "zlib")):
         path = tmp_path / "m.isoph"
@@ -578,6 +578,12 @@ def test_compact_master_renders_the_same_pixels(vi, camera, tmp_path, monkeypatc
             assert b.cap_xy.dtype == np.float32 and b.cap_value.dtype == np.float32
             assert np.array_equal(a.points, b.points) and np.array_equal(a.cap_xy, b.cap_xy)
             assert np.array_equal(a.offsets, b.offsets) and np.array_equal(a.cap_value, b.cap_value)
+        # the server's contour overlay draws a compact master's chains in float64, as a full one's
+        monkeypatch.setattr(chains, "GATHER_CHUNK", 7)  # chunks that end inside chains
+        for x, y in zip(chains.chain_segments(full.channels[0].points, full.channels[0].offsets),
+                        chains.chain_segments(small.channels[0].points, small.channels[0].offsets)):
+            assert x.dtype == y.dtype and np.array_equal(x, y)
+        monkeypatch.undo()
         for forced in (False, True):
             if forced:
                 _force_blocks(monkeypatch)

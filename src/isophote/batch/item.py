@@ -128,7 +128,7 @@ def _process(job: dict, t0: float) -> dict:
         out["input_sha256"] = sha256_file(job["input"])
     if job["need_master"]:
         out["master"] = _encode(raster, job, master_path, outdir)
-    vi = load(master_path)
+    vi = load(master_path, compact=True)  # only rendered: float32 points, the same pixels
     out["width"], out["height"] = vi.width, vi.height
     for spec in job["outputs"]:
         out["outputs"][spec["name"]] = _deliver(vi, spec, outdir, stem)

@@ -11,6 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 
+GATHER_CHUNK = 1 << 16  # segments chain_segments gathers at a time from float32 points
+
+
 def segment_starts(offsets: np.ndarray):
     """(first (S,), counts (C,)): the index in ``points`` of every segment's first control
     point, and each contour's number of segments."""
@@ -26,7 +29,15 @@ def chain_segments(points: np.ndarray, offsets: np.ndarray):
     first, counts = segment_starts(offsets)
     if len(first) == 0:
         return np.zeros((0, 4, 2)), np.zeros(0, np.int64)
-    return points[first[:, None] + np.arange(4)], np.repeat(np.arange(len(counts)), counts)
+    owner = np.repeat(np.arange(len(counts)), counts)
+    if points.dtype == np.float64:
+        return points[first[:, None] + np.arange(4)], owner
+    # a compact master's float32 points (isophote.load): float64 segments, the same values,
+    # gathered a chunk at a time (no float32 copy of them all beside)
+    segs = np.empty((len(first), 4, 2))
+    for a in range(0, len(first), GATHER_CHUNK):
+        segs[a : a + GATHER_CHUNK] = points[first[a : a + GATHER_CHUNK, None] + np.arange(4)]
+    return segs, owner
 
 
 def segments(channel):

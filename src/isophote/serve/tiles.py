@@ -65,7 +65,7 @@ def load_master(path, original=None) -> Master:
     import isophote
 
     path = os.fspath(path)
-    vi = isophote.load(path)
+    vi = isophote.load(path, compact=True)  # only rendered, and its contours drawn in float64
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
