@@ -646,3 +646,27 @@ def test_fields_computed_at_once_at_most_the_threads(vi, forced_blocks, monkeypa
         with threads.limited(n):
             assert np.array_equal(vi.render(scale=1.0), ref)
         assert 1 <= state["most"] <= threads.available(n)
+
+
+def test_paged_lists_and_runs_give_the_same_pixels(vi, forced_blocks, monkeypatch):
+    """A big unprepared level keeps its block lists and label runs on temporary files
+    (blocks.PAGED_ENTRIES), their pages released after each strip: the same pixels as in
+    memory, at 1/2, 1 and 3, with the strips cut small (pages read back many times)."""
+    from isophote.shared.spill import pager_or_none
+
+    fresh = dataclasses.replace(vi)
+    ref = {s: fresh.render(scale=s) for s in (0.5, 1.0, 3.0)}
+    made = []
+    init = blocks.ChannelLevel.__init__
+
+    def spy(self, *args, **kw):
+        init(self, *args, **kw)
+        made.append(self.pager)
+
+    monkeypatch.setattr(blocks, "PAGED_ENTRIES", 1)
+    monkeypatch.setattr(blocks.ChannelLevel, "__init__", spy)
+    monkeypatch.setattr(strips, "STRIP_ROWS", 5)
+    for s, a in ref.items():
+        assert np.array_equal(dataclasses.replace(vi).render(scale=s), a), s
+    if pager_or_none() is not None:  # a temporary directory on disk: the blocked levels paged
+        assert any(p is not None for p in made)

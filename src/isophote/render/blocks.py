@@ -46,6 +46,7 @@ from .. import threads
 from ._kernels.diffuse import (D, NF, V, band_widths, evaluate, label_nodes, offer_coarse, offsets, propagate, region_caps,
                                seed)
 from ._kernels.raster import rasterise, rasterise_chains, rasterise_window
+from ..shared.spill import pager_or_none
 from ._kernels.regions import cap_values, local_cap_values_runs, row_runs
 from ._kernels.sharpen import correction
 from .distance import MAX_SWEEPS, MODES, NodeField
@@ -168,9 +169,15 @@ class ChannelLevel:
         self.vi, self.ch, self.level, self.tol, self.shared = vi, ch, level, tol, shared
         self.gcapv = self.gruns = self.glabels = self.gband_cols = None
         self._coarse, self._coarse_lock = {}, threading.Lock()
-        self.edges = None
+        self.edges = self.pager = None
         nbr, nbc = level.blocks()
         self.index = SegmentIndex(ch.points, first, ch.border, level.r, level.block, nbr, nbc, sample_rows)
+        if level.block and shared is None and len(self.index.index) >= PAGED_ENTRIES:
+            # a render's big level reads its block lists and label runs a block row at a time,
+            # in order: they wait on temporary files' pages, released after each strip
+            self.pager = pager_or_none()
+            if self.pager is not None:
+                self.index.index = self.pager.put(self.index.index)
         if not level.block:
             # a level whose samples are read here keeps its edges; one that only gives fields
             # (a coarse field: ``fields_only``) flattens its segments as it rasterises them
@@ -224,6 +231,8 @@ class ChannelLevel:
         runs = row_runs(labels)
         if lv.nc <= np.iinfo(np.int16).max:
             runs = (runs[0], runs[1].astype(np.int16), runs[2])
+        if self.pager is not None:
+            runs = (runs[0], self.pager.put(runs[1]), self.pager.put(runs[2]))
         self.gruns, self.glabels = (runs, None) if len(runs[1]) <= labels.size * MAX_RUNS else (None, labels)
         first_cols = sorted({lv.window(0, bj)[1] for bj in range(lv.blocks()[1])})
         self.gband_cols = {j: np.ascontiguousarray(band[:, j]) for j in first_cols}
@@ -232,6 +241,14 @@ class ChannelLevel:
         jj = np.minimum(np.arange(coarse.nc) * k + k // 2, lv.nc - 1)
         self.coarse_labels, self.coarse_bands = labels[np.ix_(ii, jj)], band[np.ix_(ii, jj)].astype(np.int64)
         del labels, band, runs
+        self.release_pages()
+
+    def release_pages(self) -> None:
+        """The pages of the level's block lists and label runs that a render's big level keeps
+        on temporary files (``pager``) out of the process's memory, to be read back from the
+        page cache or the file as later strips need them: the same values (spill.Pager)."""
+        if self.pager is not None:
+            self.pager.release()
 
     def _window_caps(self, labels, nreg: int, i0: int, j0: int, values) -> np.ndarray:
         """values (one a canvas region) of each region of the window whose first node is
@@ -371,6 +388,12 @@ class ChannelLevel:
                        ramp, corr)
         nf.origin = (i0, j0)
         return nf
+
+
+# Entries of a level's block lists from which an unprepared render keeps them, and its runs of
+# region labels, on temporary files a block row at a time (4 M: 16 MB of lists; the mosaic's
+# `high` luma has 11 M, with 46 MB of runs; a preparation's levels, read in any order, keep theirs)
+PAGED_ENTRIES = 1 << 22
 
 
 def cap_positions(ch, r: float):

@@ -348,4 +348,5 @@ def fill_samples(cache: BlockCache, sedges: SampleEdges, vp, xs, ys, out_r0: int
             for bi, bj, *_ in group:
                 if last_use is not None and lv.block and last_use.get(bi, -1) <= out_r1:
                     cache.drop(bi, bj)  # no later strip reads this block
+    cl.release_pages()  # the level's paged lists and runs this strip read (a big render's: blocks.PAGED_ENTRIES)
     return out
