@@ -450,7 +450,7 @@ def test_blocked_domes_take_the_canvas_regions_d_max(monkeypatch):
     d = np.abs(_blocked(eq, monkeypatch, 8) - one)
     assert d.max() <= 5 and d.mean() < 0.1
     _force_blocks(monkeypatch, 8)
-    monkeypatch.setattr(blocks.ChannelLevel, "coarse_dmax", lambda self, mode: np.zeros((len(self.gcapv), 2)))
+    monkeypatch.setattr(blocks.ChannelLevel, "coarse_dmax", lambda self, mode: np.zeros((2, len(self.gcapv))))
     d = np.abs(eq.render().astype(float) - one)
     monkeypatch.undo()
     assert d.max() >= 10 and d.mean() > 0.3

@@ -221,6 +221,8 @@ class ChannelLevel:
         labels, m = label_nodes(band)
         self.gcapv = cap_values(band, labels, m, *cap_positions(ch, r),
                                 ch.cap_band.astype(np.int64), ch.cap_value)
+        if self.pager is not None:  # read by label: a block row's regions lie mostly together
+            self.gcapv = self.pager.put(self.gcapv)
         # what the windows read of the level's bands and labels is kept, not the whole (6
         # bytes a node: 98 MB a channel at 1x for 16 MP): the band of each window's first
         # column, the labels as runs along the rows (0.36 runs a node on the mosaic's luma,
@@ -244,9 +246,10 @@ class ChannelLevel:
         self.release_pages()
 
     def release_pages(self) -> None:
-        """The pages of the level's block lists and label runs that a render's big level keeps
-        on temporary files (``pager``) out of the process's memory, to be read back from the
-        page cache or the file as later strips need them: the same values (spill.Pager)."""
+        """The pages of the level's block lists, label runs, cap values and d_max that a
+        render's big level keeps on temporary files (``pager``) out of the process's memory,
+        to be read back from the page cache or the file as later strips need them: the same
+        values (spill.Pager)."""
         if self.pager is not None:
             self.pager.release()
 
@@ -309,9 +312,11 @@ class ChannelLevel:
             return self._coarse[key]
 
     def coarse_dmax(self, mode: int) -> np.ndarray:
-        """(regions, 2): each canvas region's largest distance from its lower and upper
+        """(2, regions): each canvas region's largest distance from its lower and upper
         sources as the coarse field sees it (its nodes' distances, in the level's node
-        units, by the canvas region of the level node at each coarse node's centre)."""
+        units, by the canvas region of the level node at each coarse node's centre); each
+        side a contiguous row, which a window reads where its regions' labels point (a
+        render's big level keeps it on its pager's files)."""
         with self._coarse_lock:
             out = self._coarse.get(("dmax", mode))
         if out is None:
@@ -319,7 +324,7 @@ class ChannelLevel:
             g, b = self.coarse_labels, self.coarse_bands  # the level's at the coarse nodes' centres
             lv = self.ch.levels.astype(np.float32)
             nl = len(lv)
-            out = np.zeros((len(self.gcapv), 2))
+            out = np.zeros((2, len(self.gcapv)))
             for s in range(2):
                 d = Fc[s, D].astype(np.float64) * k
                 # a coarse node's source counts for the level node's region where it is of the
@@ -327,9 +332,9 @@ class ChannelLevel:
                 want = b - 1 + s
                 ok = np.isfinite(d) & (want >= 0) & (want < nl)
                 ok[ok] &= Fc[s, V][ok] == lv[want[ok]]
-                side = np.zeros(len(self.gcapv))
-                np.maximum.at(side, g[ok], d[ok])
-                out[:, s] = side
+                np.maximum.at(out[s], g[ok], d[ok])
+            if self.pager is not None:
+                out = self.pager.put(out)
             with self._coarse_lock:
                 self._coarse[("dmax", mode)] = out
         return out
@@ -357,7 +362,7 @@ class ChannelLevel:
                         leaves[edge] = True
                 gd = self.coarse_dmax(mode)
                 for s in range(2):
-                    wide = self._window_caps(labels, nreg, i0, j0, np.ascontiguousarray(gd[:, s]))
+                    wide = self._window_caps(labels, nreg, i0, j0, gd[s])
                     dmax[:, s] = np.where(leaves, np.maximum(dmax[:, s], wide), dmax[:, s])
         else:
             dmax, capv = region_caps(F, band, labels, nreg, *cap_positions(ch, r),
@@ -390,9 +395,10 @@ class ChannelLevel:
         return nf
 
 
-# Entries of a level's block lists from which an unprepared render keeps them, and its runs of
-# region labels, on temporary files a block row at a time (4 M: 16 MB of lists; the mosaic's
-# `high` luma has 11 M, with 46 MB of runs; a preparation's levels, read in any order, keep theirs)
+# Entries of a level's block lists from which an unprepared render keeps them, its runs of
+# region labels and its regions' cap values and coarse d_max on temporary files, read a block
+# row at a time (4 M: 16 MB of lists; the mosaic's `high` luma has 11 M, with 46 MB of runs
+# and 4.4 M regions, 100 MB of values; a preparation's levels, read in any order, keep theirs)
 PAGED_ENTRIES = 1 << 22
 
 
