@@ -129,6 +129,8 @@ class Pager:
         the file and the page cache). Arrays on no map of a pager are left as they are."""
         import mmap
 
+        if not hasattr(mmap, "MADV_DONTNEED"):  # no madvise here (Windows): the pages stay mapped
+            return
         maps = [r() for r in self._maps] if not arrays else [_map_of(a) for a in arrays]
         for m in maps:
             if m is not None:
