@@ -132,6 +132,13 @@ def _exact(q: np.ndarray) -> bool:
     return q.size == 0 or max(-int(q.min()), int(q.max())) < EXACT_GRID
 
 
+def _grid_values(v: np.ndarray, compact: bool) -> np.ndarray:
+    """Grid values v / QUANT: float32 with ``compact`` where exact, else float64."""
+    if compact and _exact(v):
+        return v.astype(np.float32) / np.float32(QUANT)
+    return v.astype(np.float64) / QUANT
+
+
 def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq, compact=False) -> Channel:
     """A Channel in canonical dtypes from decoded integers (1/64 units); q, the decoder's
     own, becomes the points in place: float64, or with ``compact`` float32 where exact
@@ -148,10 +155,8 @@ def to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, c
         parent=parent.astype(np.int32),
         cap_band=cap_band.astype(np.int32),
         cap_contour=cap_contour.astype(np.int32),
-        cap_xy=(cq.astype(np.float32) / np.float32(QUANT) if points is not None and _exact(cq)
-                else cq.astype(np.float64) / QUANT),
-        cap_value=(vq.astype(np.float32) / np.float32(QUANT) if points is not None and _exact(vq)
-                   else vq.astype(np.float64) / QUANT),
+        cap_xy=_grid_values(cq, points is not None),
+        cap_value=_grid_values(vq, points is not None),
         base_band=info.base_band,
         tone=None if info.tone is None else info.tone.copy(),
         cap_ramp=float(info.cap_ramp),

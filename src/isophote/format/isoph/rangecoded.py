@@ -134,20 +134,20 @@ RANGE_ERRORS = {
 
 
 def decode_range_channel(item):
-    """One channel off its range-coded bytes: ``item`` is (ChannelInfo, bytes, version[,
-    compact]) (compact: layout.to_channel's)."""
-    info, data, version, *compact = item
+    """One channel off its range-coded bytes: ``item`` is (ChannelInfo, bytes, version,
+    compact) (compact: layout.to_channel's)."""
+    info, data, version, compact = item
     c, s, k = info.n_contours, info.n_segments, info.n_caps
     args = (data, c, s, k, info.g, info.s_p, info.s_c, info.s_v, info.levels, info.base_band, version)
     (status, where, extra, level, nseg, parent, q, border, cap_contour, cap_band, cq, vq) = \
-        entropy.decode_channel(*args) if version < 5 else decode_parts(*args, points32=bool(compact and compact[0]))
+        entropy.decode_channel(*args) if version < 5 else decode_parts(*args, points32=compact)
     if status != entropy.OK:
         msg = RANGE_ERRORS[status].format(where=where, extra=extra, c=c, s=s, L=info.levels.shape[0])
         raise FormatError(f"channel {info.name}: {msg}")
     check_semantics(info.name, info.levels.shape[0], level, parent, cap_band, cap_contour)
     offsets = np.zeros(c + 1, np.int64)
     np.cumsum(3 * nseg + 1, out=offsets[1:])
-    return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq, *compact)
+    return to_channel(info, level, offsets, q, border, parent, cap_band, cap_contour, cq, vq, compact)
 
 
 def decode_parts(data, c, s, k, g, s_p, s_c, s_v, levels, base_band, version, workers=None, points32=False):

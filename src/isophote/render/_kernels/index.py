@@ -85,16 +85,6 @@ def kept_segments(points, first, r, cull, sky, soff):
     return ids
 
 
-@njit(cache=True, nogil=True)
-def segment_boxes(points, first, ids, r):
-    """(4, K) float32 [x_lo, x_hi, y_lo, y_hi] in node units of the segments ids: what the
-    index computes as it goes (grid_index, select) without holding them."""
-    box = np.empty((4, ids.shape[0]), np.float32)
-    for k in range(ids.shape[0]):
-        box[0, k], box[1, k], box[2, k], box[3, k] = _node_box(points, first[ids[k]], r)
-    return box
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _cell(v, size, nb):
     """The block of node coordinate v (float32 arithmetic, as NumPy does on the boxes)."""
@@ -109,7 +99,7 @@ def _cell(v, size, nb):
 @njit(cache=True, nogil=True)
 def grid_index(points, first, ids, r, size, nbr, nbc):
     """CSR of the segments ids (ascending) by the blocks (row-major, ``size`` nodes a side)
-    their boxes (segment_boxes, at r nodes a source pixel) reach widened by a node: (index
+    their boxes (_node_box, at r nodes a source pixel) reach widened by a node: (index
     (N,) int32 segment ids, ascending within each block; starts (nbr * nbc + 1,))."""
     n = ids.shape[0]
     one = np.float32(1.0)
@@ -139,7 +129,7 @@ def grid_index(points, first, ids, r, size, nbr, nbc):
 @njit(cache=True, nogil=True)
 def select(index, starts, nbc, b0, b1, c0, c1, points, first, r, x_lo, x_hi, y_lo, y_hi):
     """The segments (ascending ids, each once) listed in blocks rows b0..b1 x columns
-    c0..c1 (grid_index) whose boxes (segment_boxes) reach [x_lo, x_hi] x [y_lo, y_hi]."""
+    c0..c1 (grid_index) whose boxes (_node_box) reach [x_lo, x_hi] x [y_lo, y_hi]."""
     lo = np.iinfo(np.int64).max
     hi = -1
     for b in range(b0, b1 + 1):

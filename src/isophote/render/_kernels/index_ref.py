@@ -34,6 +34,8 @@ def kept_segments(points, first, r, cull, sky, soff):
 
 
 def segment_boxes(points, first, ids, r):
+    """(4, K) float32 [x_lo, x_hi, y_lo, y_hi] in node units of the segments ids: the boxes
+    index.py's kernels compute where they test them (_node_box), never held there."""
     xlo, xhi, ylo, yhi = _boxes(points, first[ids])
     return np.stack([xlo * r, xhi * r, ylo * r, yhi * r]).astype(np.float32)
 
