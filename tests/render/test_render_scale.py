@@ -670,3 +670,16 @@ def test_paged_lists_and_runs_give_the_same_pixels(vi, forced_blocks, monkeypatc
         assert np.array_equal(dataclasses.replace(vi).render(scale=s), a), s
     if pager_or_none() is not None:  # a temporary directory on disk: the blocked levels paged
         assert any(p is not None for p in made)
+
+
+def test_a_tile_above_1x_lies_in_one_block():
+    """Above one output pixel a node a block holds the nodes under BLOCK output pixels, so a
+    256 x 256 tile on its zoom's grid reads one block's window a channel; never under 32."""
+    for zoom_per_node, nodes in ((1.0, 256), (0.5, 256), (1.5, 128), (2.0, 128), (3.0, 64), (4.0, 64), (8.0, 32),
+                                 (64.0, 32)):
+        assert blocks.block_size(zoom_per_node) == nodes, zoom_per_node
+    for zoom in (2.0, 4.0, 8.0):
+        b, span = blocks.block_size(zoom), 256 / zoom  # the tile's span in nodes (r = 1)
+        for i in range(40):
+            first, last = int(i * span) // b, int((i + 1) * span - 1) // b
+            assert first == last, (zoom, i)
