@@ -5,6 +5,10 @@ shared machine), after a warm-up render: the renderer's kernels are wrapped by t
 read the calling thread's processor time, so the figures hold on a loaded machine too.
 
     python benchmarks/render_profile.py MASTER.isoph [--scale 0.75 | --width 960] [--crop x,y,w,h]
+        [--prepared]
+
+``--prepared``: the master is prepared for the render's scale first (VectorImage.prepare,
+not timed), so a crop costs what a tile there does: its windows and its samples.
 
 Stages: the segment index; the canvas-wide region pass (its bands, then the labelling);
 per block window the rasterised rows and columns with their crossings, seed, propagate,
@@ -27,6 +31,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", type=float)
     ap.add_argument("--width", type=int)
     ap.add_argument("--crop", help="x,y,w,h in source pixels")
+    ap.add_argument("--prepared", action="store_true", help="prepare the master for this scale first")
     args = ap.parse_args(argv)
 
     import isophote
@@ -77,6 +82,11 @@ def main(argv=None) -> int:
         opts["crop"] = tuple(float(v) for v in args.crop.split(","))
     vi = isophote.load(args.master)
     with threads.limited(1):
+        if args.prepared:
+            from isophote.render.prepare import prepare
+
+            out = vi.render(**opts)  # the scale's output size (prepare takes a zoom)
+            prepare(vi, (out.shape[1] / (opts["crop"][2] if "crop" in opts else vi.width),))
         vi.render(crop=(0, 0, 64, 64), scale=opts.get("scale", 1.0))  # compile / load the kernels
         took.clear()
         calls.clear()
