@@ -83,10 +83,11 @@ def main(argv=None) -> int:
     vi = isophote.load(args.master)
     with threads.limited(1):
         if args.prepared:
+            from isophote.options import RenderOptions, make
             from isophote.render.prepare import prepare
 
-            out = vi.render(**opts)  # the scale's output size (prepare takes a zoom)
-            prepare(vi, (out.shape[1] / (opts["crop"][2] if "crop" in opts else vi.width),))
+            vp = R.viewport(vi, make(RenderOptions, opts))
+            prepare(vi, (max(vp.kx, vp.ky) / vp.s,))  # the zoom channel_state gives this render
         vi.render(crop=(0, 0, 64, 64), scale=opts.get("scale", 1.0))  # compile / load the kernels
         took.clear()
         calls.clear()

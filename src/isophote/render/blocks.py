@@ -73,9 +73,10 @@ def block_size(zoom_per_node: float) -> int:
     """Nodes a side of a block: BLOCK at or below one output pixel a node; above, the
     largest power of two of nodes within BLOCK output pixels (at least 32): a 256 x 256
     tile on its zoom's grid then lies in one block, whose window is its own nodes and the
-    margin (2, 4 and 8 output pixels a node give 128, 64 and 32). Bigger blocks cost a full enlargement less margin (Kite's 2x
-    render: 5.3 s with 256, 6.1-6.3 s with 128) but a cold tile 3.2 times the nodes at 2x
-    (benchmarks/results/render_scale.md, "Blocks of a tile's size above 1x")."""
+    margin (2, 4 and 8 output pixels a node give 128, 64 and 32). Bigger blocks cost a full
+    enlargement less margin (Kite's 2x render: 5.3 s with 256, 6.1-6.3 s with 128) but a
+    cold tile 3.2 times the nodes at 2x (benchmarks/results/render_scale.md, "Blocks of a
+    tile's size above 1x")."""
     b = BLOCK
     while b > 32 and zoom_per_node * b > BLOCK:
         b //= 2
