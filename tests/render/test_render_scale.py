@@ -683,3 +683,50 @@ def test_a_tile_above_1x_lies_in_one_block():
         for i in range(40):
             first, last = int(i * span) // b, int((i + 1) * span - 1) // b
             assert first == last, (zoom, i)
+
+
+def test_covered_blocks_are_those_whose_every_sample_the_render_reads():
+    """strips.covered_blocks, known answers: a 2x tile on its grid covers its one block; one
+    sample short of it, none; a wider crop the blocks it spans whole; the last block row,
+    shorter than a block, is covered to the level's edge."""
+    from isophote.render.strips import covered_blocks
+
+    lv = blocks.Level(1.0, 300, 500, 128)
+    tile = (np.arange(256) + 0.5) / 2  # a 2x tile's samples in node units, from node 0
+    assert covered_blocks(lv, tile + 256, tile + 128) == [(1, 2)]
+    assert covered_blocks(lv, tile[1:] + 256, tile + 128) == []
+    assert covered_blocks(lv, tile[:-1] + 256, tile + 128) == []
+    wide = (np.arange(600) + 0.5) / 2 + 100  # nodes 100 .. 400: blocks 1 and 2 whole
+    assert covered_blocks(lv, wide, tile + 128) == [(1, 1), (1, 2)]
+    assert covered_blocks(lv, tile + 256, (np.arange(88) + 0.5) / 2 + 256) == [(2, 2)]  # nodes 256 .. 300
+    assert covered_blocks(blocks.Level(1.0, 300, 500, 0), tile, tile) == []  # one window: no blocks
+
+
+def test_a_tile_lets_go_of_the_blocks_it_covers(vi, forced_blocks):
+    """After a prepared render the fields of the blocks it read whole are let go (no other
+    tile of its grid reads them); those it read in part stay for its neighbours. The same
+    pixels either way."""
+    from isophote.render.tiles import Tiler
+
+    fresh = dataclasses.replace(vi)
+    t = Tiler(fresh, zooms=(2.0,))
+    t.tile(0, 0, 8, 8, 16, 16)  # makes the channels' levels and caches
+    caches = [c for k, c in t.preparation.caches.items() if not (isinstance(k, tuple) and k[0] == "lock")]
+    luma = caches[0].cl.level
+    B = luma.block / luma.r  # a luma block's side in source pixels
+    assert luma.block and luma.r >= 1
+    for x, y, w, h in [(B, 0, B, B), (B / 2, B / 2, B, B), (0, B, 2 * B, B), (B / 4, B, B, B / 2)]:
+        got = t.tile(x, y, w, h, round(2 * w), round(2 * h))
+        assert np.array_equal(got, dataclasses.replace(vi).render(crop=(x, y, w, h), width=round(2 * w),
+                                                                  height=round(2 * h)))
+        for c in caches:
+            lv = c.cl.level
+            side = lv.block / lv.r
+            whole = {(bi, bj) for bi in range(lv.blocks()[0]) for bj in range(lv.blocks()[1])
+                     if x <= bj * side and (bj + 1) * side <= x + w and y <= bi * side and (bi + 1) * side <= y + h}
+            assert not whole & set(c.blocks), (x, y, w, h)
+        held = set(caches[0].blocks)
+        if (x, y) == (B / 2, B / 2):  # four blocks, each in part: all four kept for the neighbours
+            assert {(0, 0), (0, 1), (1, 0), (1, 1)} <= held
+        if (x, y) == (B, 0):  # block (0, 1) whole: let go
+            assert (0, 1) not in held

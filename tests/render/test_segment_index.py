@@ -162,3 +162,33 @@ def test_segment_firsts_are_the_chains_segment_starts():
     assert np.array_equal(got, segment_starts(offsets)[0])
     assert np.array_equal(R.fill_firsts(offsets, np.empty(9, np.int32)), got)
     assert segment_firsts(np.zeros(1, np.int64)).shape == (0,)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_windows_and_rows_read_every_segment_that_reaches_them(seed):
+    """The index's cells (BIN nodes, finer than the blocks) give a window, or a strip of rows
+    and columns, exactly the kept segments whose box reaches it widened by a node, ascending:
+    windows on cell and block edges among them."""
+    from isophote.render.segment_index import BIN, SegmentIndex
+
+    rng = np.random.default_rng(1300 + seed)
+    points, first, _ = _chains(rng, 3000, span=200.0, size=4.0)
+    border = rng.random(len(first)) < 0.1
+    r, block, nr, nc = 1.0, 64, 200, 200
+    ix = SegmentIndex(points, first, border, r, block, nr, nc)
+    assert ix.bin == BIN < block and (ix.nbr, ix.nbc) == (-(-nr // BIN), -(-nc // BIN))
+    ids = K.kept_segments(points, first, r, True, 0.0, 0.0)
+    box = R.segment_boxes(points, first, ids, r)
+
+    def reaching(x_lo, x_hi, y_lo, y_hi):
+        return ids[(box[1] >= x_lo) & (box[0] <= x_hi) & (box[3] >= y_lo) & (box[2] <= y_hi)]
+
+    windows = [(0, 0, 80, 80), (48, 48, 96, 96), (64 - 16, 128 - 16, 96, 72), (32, 0, 64, 32), (160, 168, 40, 32)]
+    windows += [tuple(int(v) for v in rng.integers(0, 150, 2)) + tuple(int(v) for v in rng.integers(1, 50, 2))
+                for _ in range(10)]
+    for i0, j0, n, m in windows:
+        got = ix.window(i0, j0, n, m)
+        assert np.array_equal(got, reaching(j0 - 1, j0 + m + 1, i0 - 1, i0 + n + 1)), (i0, j0, n, m)
+    for y_lo, y_hi, x_lo, x_hi in [(10.5, 40.25, -np.inf, np.inf), (63.0, 64.0, 30.0, 95.5), (0.0, 199.0, 96.0, 97.0)]:
+        got = ix.rows(y_lo, y_hi, x_lo, x_hi)
+        assert np.array_equal(got, reaching(x_lo, x_hi, y_lo - 1, y_hi + 1))

@@ -36,7 +36,7 @@ from .prepare import prepared
 from .segment_index import segment_firsts
 from .sharpen import gains
 from .strips import (STRIP_ROWS, BlockCache, SampleEdges, canvas_buckets, crop_windings, fill_rows,  # noqa: F401
-                     fill_samples, finish, sample_positions, strip_cuts)
+                     covered_blocks, fill_samples, finish, sample_positions, strip_cuts)
 
 
 @dataclass(frozen=True)
@@ -205,6 +205,14 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
 
         for f in [pool.submit(fill, name, r0, r1) for r0, r1 in cuts for name in names]:
             f.result()
+        if prep is not None and not flat:
+            # a tile at its zoom's grid reads one block, wholly, and no other tile reads it:
+            # kept, its fields would only push older ones out of the preparation's budget, and
+            # every tile would fault in a few fresh megabytes (heap.keep_freed_memory)
+            for name in names:
+                cache, _, xs, ys, _ = ready[name].result()
+                for bi, bj in covered_blocks(cache.cl.level, xs, ys):
+                    cache.drop(bi, bj)
     return out
 
 

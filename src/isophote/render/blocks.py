@@ -175,8 +175,7 @@ class ChannelLevel:
         self.gcapv = self.gruns = self.glabels = self.gband_cols = None
         self._coarse, self._coarse_lock = {}, threading.Lock()
         self.edges = self.pager = None
-        nbr, nbc = level.blocks()
-        self.index = SegmentIndex(ch.points, first, ch.border, level.r, level.block, nbr, nbc, sample_rows)
+        self.index = SegmentIndex(ch.points, first, ch.border, level.r, level.block, level.nr, level.nc, sample_rows)
         if level.block and shared is None and len(self.index.index) >= PAGED_ENTRIES:
             # a render's big level reads its block lists and label runs a block row at a time,
             # in order: they wait on temporary files' pages, released after each strip

@@ -77,6 +77,8 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
     from ..options import RenderOptions
     from .distance import MODES
 
+    from ..shared.heap import keep_freed_memory
+
     prep = _PREPARED.get(vi)
     if prep is None:
         prep = _PREPARED[vi] = Preparation(field_bytes)
@@ -96,4 +98,7 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
 
             with threads.pool(threads.available(len(vi.channels))) as pool:
                 list(pool.map(plane, vi.channels))
+    # tiles to come: their windows' arrays stay in the heap from one tile to the next (set
+    # after the preparation, whose canvas-sized temporaries are mapped and given back)
+    keep_freed_memory()
     return prep

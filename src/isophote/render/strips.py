@@ -278,6 +278,27 @@ def sample_positions(vp, r: float):
     return xs, ys
 
 
+def covered_blocks(lv, xs, ys) -> list[tuple[int, int]]:
+    """The blocks of level lv every sample of whose lattice (the render's: columns xs, rows
+    ys, node units, evenly spaced) the render reads: the lattice's samples before and after
+    the render's lie in other blocks, or off the level. A block-cache policy (a block left
+    out is recomputed if asked again, one kept costs memory): the pixels do not depend on it."""
+    if not lv.block or len(xs) < 2 or len(ys) < 2:
+        return []
+    nbr, nbc = lv.blocks()
+
+    def spans(pos, nb, extent):
+        step = pos[1] - pos[0]
+        out = []
+        for b, _, _ in split(pos, lv.block, nb):
+            lo, hi = b * lv.block, min((b + 1) * lv.block, extent)
+            if pos[0] - step < lo and pos[-1] + step >= hi:
+                out.append(b)
+        return out
+
+    return [(bi, bj) for bi in spans(ys, nbr, lv.nr) for bj in spans(xs, nbc, lv.nc)]
+
+
 def strip_cuts(vp, level, ys) -> list[tuple[int, int]]:
     """Output row ranges of the strips: STRIP_ROWS rows, or for a blocked level the runs of
     output rows whose first sample row lies in one block row (at most 2 * BLOCK rows)."""

@@ -129,7 +129,9 @@ def grid_index(points, first, ids, r, size, nbr, nbc):
 @njit(cache=True, nogil=True)
 def select(index, starts, nbc, b0, b1, c0, c1, points, first, r, x_lo, x_hi, y_lo, y_hi):
     """The segments (ascending ids, each once) listed in blocks rows b0..b1 x columns
-    c0..c1 (grid_index) whose boxes (_node_box) reach [x_lo, x_hi] x [y_lo, y_hi]."""
+    c0..c1 (grid_index) whose boxes (_node_box) reach [x_lo, x_hi] x [y_lo, y_hi]. The ids
+    met are marked in a bitmap over their range (a bit an id: a window of a 16 MP luma spans
+    millions of ids, for a few ten thousand kept), read back a 64-bit word at a time."""
     lo = np.iinfo(np.int64).max
     hi = -1
     for b in range(b0, b1 + 1):
@@ -139,21 +141,27 @@ def select(index, starts, nbc, b0, b1, c0, c1, points, first, r, x_lo, x_hi, y_l
             hi = max(hi, k)
     if hi < 0:
         return np.zeros(0, np.int64)
-    mark = np.zeros(hi - lo + 1, np.bool_)
+    mark = np.zeros(((hi - lo) >> 6) + 1, np.uint64)
     count = 0
     for b in range(b0, b1 + 1):
         for q in range(starts[b * nbc + c0], starts[b * nbc + c1 + 1]):
             k = index[q]
-            if mark[k - lo]:
+            w, bit = (k - lo) >> 6, np.uint64(1) << np.uint64((k - lo) & 63)
+            if mark[w] & bit:
                 continue
             bx0, bx1, by0, by1 = _node_box(points, first[k], r)
             if bx1 >= x_lo and bx0 <= x_hi and by1 >= y_lo and by0 <= y_hi:
-                mark[k - lo] = True
+                mark[w] |= bit
                 count += 1
     out = np.empty(count, np.int64)
     e = 0
-    for k in range(hi - lo + 1):
-        if mark[k]:
-            out[e] = k + lo
-            e += 1
+    for w in range(mark.shape[0]):
+        v = mark[w]
+        j = 0
+        while v:
+            if v & np.uint64(1):
+                out[e] = lo + (w << 6) + j
+                e += 1
+            v >>= np.uint64(1)
+            j += 1
     return out

@@ -65,14 +65,19 @@ def rasterise_chains(points, first, border, ids, tol, kx, ox, ky, oy, swap, row0
         n = steps(points, f, border[k], tol, MAX_STEPS)
         src = not border[k]
         px, py = points[f, 0] * kx - ox, points[f, 1] * ky - oy
+        if swap:
+            px, py = py, px
+        pr = _row_of(py, nudge_row)
         for i in range(1, n + 1):
             sx, sy = point(points, f, i, n)
             qx, qy = sx * kx - ox, sy * ky - oy
             if swap:
-                _edge(acc, py, px, qy, qx, src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col)
-            else:
-                _edge(acc, px, py, qx, qy, src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col)
-            px, py = qx, qy
+                qx, qy = qy, qx
+            qr = _row_of(qy, nudge_row)
+            if qr != pr:
+                _edge_rows(acc, px, py, qx, qy, pr, qr, src, row0, col0, n_rows, n_cols, crossings, nudge_row,
+                           nudge_col)
+            px, py, pr = qx, qy, qr
     return _finish(acc, n_rows, n_cols)
 
 
@@ -89,12 +94,16 @@ def rasterise_window(points, first, border, ids, tol, r, j0, i0, n_rows, n_cols)
         n = steps(points, f, border[k], tol, MAX_STEPS)
         src = not border[k]
         px, py = points[f, 0] * r - j0, points[f, 1] * r - i0
+        pr, pc = _row_of(py, NUDGE_Y), _row_of(px, NUDGE_X)
         for i in range(1, n + 1):
             sx, sy = point(points, f, i, n)
             qx, qy = sx * r - j0, sy * r - i0
-            _edge(rows, px, py, qx, qy, src, 0, 0, n_rows, n_cols, True, NUDGE_Y, NUDGE_X)
-            _edge(cols, py, px, qy, qx, src, 0, 0, n_cols, n_rows, True, NUDGE_X, NUDGE_Y)
-            px, py = qx, qy
+            qr, qc = _row_of(qy, NUDGE_Y), _row_of(qx, NUDGE_X)
+            if qr != pr:
+                _edge_rows(rows, px, py, qx, qy, pr, qr, src, 0, 0, n_rows, n_cols, True, NUDGE_Y, NUDGE_X)
+            if qc != pc:
+                _edge_rows(cols, py, px, qy, qx, pc, qc, src, 0, 0, n_cols, n_rows, True, NUDGE_X, NUDGE_Y)
+            px, py, pr, pc = qx, qy, qr, qc
     return _finish(rows, n_rows, n_cols), _finish(cols, n_cols, n_rows)
 
 
@@ -119,18 +128,34 @@ def _accumulators(n_rows, n_cols, crossings):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _row_of(y, nudge_row):
+    """The first row at or above y in the edge test: an edge from ya to yb crosses the rows
+    from min to max (exclusive) of _row_of(ya) and _row_of(yb), none where the two are equal
+    (ya == yb among them). A chain's point is shared by two consecutive edges, so the chains'
+    kernels compute it once a point and skip the edges that cross no row."""
+    return int(np.ceil(y - 0.5 - nudge_row))
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _edge(acc, xa, ya, xb, yb, is_src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col):
     """One edge's crossings of the rows, into the accumulators."""
-    delta, fx, fd, lx, ld, fs, ls = acc
     if ya == yb:
         return
+    _edge_rows(acc, xa, ya, xb, yb, _row_of(ya, nudge_row), _row_of(yb, nudge_row), is_src, row0, col0, n_rows,
+               n_cols, crossings, nudge_row, nudge_col)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _edge_rows(acc, xa, ya, xb, yb, ra, rb, is_src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col):
+    """_edge with the ends' rows ra = _row_of(ya), rb = _row_of(yb) given (ya != yb)."""
+    delta, fx, fd, lx, ld, fs, ls = acc
     if ya < yb:
-        lo, hi, dw = ya, yb, 1
+        dw = 1
+        # rows i with lo <= i + 0.5 < hi, relative to row0
+        i_start, i_stop = ra - row0, rb - row0  # (stop exclusive)
     else:
-        lo, hi, dw = yb, ya, -1
-    # rows i with lo <= i + 0.5 < hi, relative to row0
-    i_start = int(np.ceil(lo - 0.5 - nudge_row)) - row0
-    i_stop = int(np.ceil(hi - 0.5 - nudge_row)) - row0  # exclusive
+        dw = -1
+        i_start, i_stop = rb - row0, ra - row0
     if i_start < 0:
         i_start = 0
     if i_stop > n_rows:
@@ -186,16 +211,19 @@ def row_windings(points, first, border, ids, tol, kx, ox, ky, oy, row0, n_rows, 
         f = first[k]
         n = steps(points, f, border[k], tol, MAX_STEPS)
         xa, ya = points[f, 0] * kx - ox, points[f, 1] * ky - oy
+        ra = _row_of(ya, NUDGE_Y)
         for e in range(1, n + 1):
             sx, sy = point(points, f, e, n)
             xb, yb = sx * kx - ox, sy * ky - oy
-            if ya != yb:
+            rb = _row_of(yb, NUDGE_Y)
+            if ra != rb:
+                # rows i with lo <= i + 0.5 < hi (raster._edge)
                 if ya < yb:
-                    lo, hi, dw = ya, yb, 1
+                    dw, i_start, i_stop = 1, ra - row0, rb - row0
                 else:
-                    lo, hi, dw = yb, ya, -1
-                i_start = max(int(np.ceil(lo - 0.5 - NUDGE_Y)) - row0, 0)
-                i_stop = min(int(np.ceil(hi - 0.5 - NUDGE_Y)) - row0, n_rows)
+                    dw, i_start, i_stop = -1, rb - row0, ra - row0
+                i_start = max(i_start, 0)
+                i_stop = min(i_stop, n_rows)
                 slope = (xb - xa) / (yb - ya)
                 for i in range(i_start, i_stop):
                     yc = i + row0 + 0.5 + NUDGE_Y
@@ -204,7 +232,7 @@ def row_windings(points, first, border, ids, tol, kx, ox, ky, oy, row0, n_rows, 
                     c = (g + step) // step if g >= 0 else 0  # first bin whose columns it reaches
                     if c < n_bins:
                         delta[i, c] += dw
-            xa, ya = xb, yb
+            xa, ya, ra = xb, yb, rb
     out = np.empty((n_rows, n_bins), np.int32)
     for i in range(n_rows):
         a = 0
