@@ -9,6 +9,8 @@ renders do not depend on the strips or the workers.
 from __future__ import annotations
 
 import dataclasses
+import resource
+import sys
 
 import numpy as np
 import pytest
@@ -16,6 +18,8 @@ import pytest
 import isophote
 from isophote import LimitError
 from isophote.render import blocks, strips
+from isophote import render as render_pkg
+from isophote.shared.heap import _glibc
 
 
 def _synthetic(w=96, h=72):
@@ -730,3 +734,39 @@ def test_a_tile_lets_go_of_the_blocks_it_covers(vi, forced_blocks):
             assert {(0, 0), (0, 1), (1, 0), (1, 1)} <= held
         if (x, y) == (B, 0):  # block (0, 1) whole: let go
             assert (0, 1) not in held
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not _glibc(), reason="glibc's mallopt")
+def test_repeated_tiles_fault_in_no_fresh_memory(monkeypatch):
+    """A prepared process's tile lets go of the block it covers and keeps the freed pages in
+    the heap (shared/heap.keep_freed_memory): the same 2x tile again faults in almost no
+    memory, where with its windows' arrays mapped on their own it faulted in every one of them
+    (about 7,500 pages for this tile's three 160-node windows). Then a render without a
+    preparation sets the encoder's and loader's thresholds back."""
+    from isophote.render.tiles import Tiler
+    from isophote.shared import heap
+
+    rng = np.random.default_rng(0)
+    y, x = np.mgrid[0:384, 0:384]
+    img = np.empty((384, 384, 3))
+    img[..., 0] = 128 + 60 * np.sin(x / 7.0) * np.cos(y / 9.0) + rng.normal(0, 6, x.shape)
+    img[..., 1] = 128 + 40 * np.cos((x + y) / 11.0)
+    img[..., 2] = 128 + 30 * np.sin(y / 13.0)
+    vi = isophote.encode(np.clip(img, 0, 255).astype(np.uint8))
+    monkeypatch.setattr(blocks, "SINGLE_NODES", 0)  # blocked, as a big master's levels are
+    faults = {}
+    for mode in ("tiles", "strips"):
+        fresh = dataclasses.replace(vi)
+        t = Tiler(fresh, zooms=(2.0,))
+        if mode == "strips":  # every block allocated on its own mapping, as before
+            monkeypatch.setattr(render_pkg, "keep_freed_memory", heap.return_freed_memory)
+        got = []
+        for _ in range(6):
+            before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+            tile = t.tile(128, 128, 128, 128, 256, 256)
+            got.append(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+            assert heap.mode() == mode
+        faults[mode] = max(got[3:])
+        assert np.array_equal(tile, dataclasses.replace(vi).render(crop=(128, 128, 128, 128), width=256, height=256))
+        assert heap.mode() == "strips"
+    assert faults["tiles"] < 300 < 3000 < faults["strips"], faults

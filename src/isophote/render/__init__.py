@@ -29,7 +29,7 @@ from ..colour import YUV_TO_RGB, fit_gamut, yuv_to_rgb
 from ._kernels.colour import yuv_quantise
 from ..errors import IsophoteError, LimitError
 from ..options import RenderOptions, make
-from ..shared.heap import return_freed_memory
+from ..shared.heap import keep_freed_memory, return_freed_memory
 from .blocks import CANVAS_LOCK, WINDOW_BYTES, ChannelLevel, make_level, split
 from .levels import auto_supersample, level_r
 from .prepare import prepared
@@ -129,9 +129,11 @@ def _render(vi, opts: RenderOptions, depth, progress=None) -> np.ndarray:
     allocated. A channel's strips run one at a time (its block cache's lock), in order.
     ``progress``: called with the fraction done after each strip, or None."""
     opts.validate()
-    return_freed_memory()  # glibc: freed windows and canvas passes go back to the system (shared/heap.py)
     vp = viewport(vi, opts)
     prep = prepared(vi)
+    # glibc: freed windows and canvas passes go back to the system; a tile's windows' pages
+    # stay for the next tile (shared/heap.py)
+    return_freed_memory() if prep is None else keep_freed_memory()
     states = {ch.name: channel_state(vi, ch, vp, opts, prep, plan_only=True) for ch in vi.channels}
     check_memory(vi, vp, opts, [lv for lv, _ in states.values()], depth, prep is not None)
     flat = opts.fill == "flat"

@@ -3,9 +3,11 @@ encoder's strips, the renderer's canvas passes and block windows).
 
 glibc raises its mmap threshold to the largest block freed so far (up to 32 MB), and its
 heaps then keep each freed temporary beneath the arrays that follow it: the peak RSS then
-follows what was freed, not what is held. return_freed_memory fixes the threshold (large
-blocks are mapped on their own and unmapped when freed); trim_heap gives the arenas' free
-pages back. Elsewhere (not glibc) both do nothing.
+follows what was freed, not what is held. Each stage fixes the thresholds for its own
+habits when it starts (glibc only; elsewhere nothing): return_freed_memory for the encoder's
+strips, the loader and a render (large blocks mapped on their own and unmapped when
+freed), keep_freed_memory for tiles; trim_heap gives the arenas' free
+pages back. A block is freed as it was allocated, whatever the thresholds are by then.
 """
 
 from __future__ import annotations
@@ -17,8 +19,11 @@ from __future__ import annotations
 # glibc's default, 1,578 MB with 1 MiB, 1,230 MB with 256 KiB (the per-strip results of
 # narrow strips are blocks of a few hundred KiB); benchmarks/results/encode_scale.md.
 MMAP_THRESHOLD = 1 << 18
-_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
-_M_TRIM_THRESHOLD = -1
+# A render allocates and frees a window's arrays (a few MB each, 780 windows for the mosaic
+# at 1x) again and again, each faulted in afresh (2.2 M page faults, 4.3 s of system time in
+# the mosaic's 15 s 1x render). Taking blocks under 8 MB from the heaps (16 MB of freed pages
+# kept) saved 7-13 % of a full render's time but raised its peak by 30-85 MB: the `high`
+# mosaic to 3840 wide 919 -> 974 MB beside the output, over issue 22's 1 GB. Not done.
 # A process that serves tiles (a preparation's: render/prepare.py) allocates and frees the
 # same few megabytes of window arrays for every tile; mapped on their own, each tile paid
 # about 2,200 page faults (3-4 ms of system time on two processors, a sixth of a 2x tile's
@@ -26,8 +31,12 @@ _M_TRIM_THRESHOLD = -1
 # up to TILE_TRIM bytes of freed pages stay in them for the next tile.
 TILE_MMAP_THRESHOLD = 32 << 20
 TILE_TRIM = 64 << 20
+_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
+_M_TRIM_THRESHOLD = -1
+_MODES = {"strips": (MMAP_THRESHOLD, 128 << 10),  # (glibc's default trim threshold)
+          "tiles": (TILE_MMAP_THRESHOLD, TILE_TRIM)}
 _libc = None
-_heap_set = False
+_mode = None
 
 
 def _glibc():
@@ -44,25 +53,31 @@ def _glibc():
     return _libc
 
 
+def _use(mode: str) -> None:
+    global _mode
+    if mode != _mode and _glibc():
+        mmap_threshold, trim = _MODES[mode]
+        _glibc().mallopt(_M_MMAP_THRESHOLD, mmap_threshold)
+        _glibc().mallopt(_M_TRIM_THRESHOLD, trim)
+    _mode = mode
+
+
+def mode() -> str | None:
+    """The thresholds last set: "strips", "tiles", or None."""
+    return _mode
+
+
 def return_freed_memory() -> None:
-    """Have the C allocator give large freed blocks back to the system at once (glibc
-    only, once per process; elsewhere nothing). The encoder's strips free and allocate
-    blocks of many sizes; without this the peak RSS follows what was freed, not what is held."""
-    global _heap_set
-    if not _heap_set and _glibc():
-        _glibc().mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
-    _heap_set = True
+    """Have the C allocator give large freed blocks back to the system at once (the
+    encoder, the loader, a render). The encoder's strips free and allocate blocks of many
+    sizes; without this the peak RSS follows what was freed, not what is held."""
+    _use("strips")
 
 
 def keep_freed_memory() -> None:
     """For a process that serves tiles: blocks up to TILE_MMAP_THRESHOLD come from the
-    heaps, whose freed pages (up to TILE_TRIM) the next tile's arrays reuse without faults
-    (glibc only; elsewhere nothing). Once set, return_freed_memory leaves it."""
-    global _heap_set
-    if _glibc():
-        _glibc().mallopt(_M_MMAP_THRESHOLD, TILE_MMAP_THRESHOLD)
-        _glibc().mallopt(_M_TRIM_THRESHOLD, TILE_TRIM)
-    _heap_set = True
+    heaps, whose freed pages (up to TILE_TRIM) the next tile's arrays reuse without faults."""
+    _use("tiles")
 
 
 def trim_heap() -> None:
