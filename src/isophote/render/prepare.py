@@ -31,7 +31,10 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
   costs about 1 ms, not 90 (benchmarks/results/serve_load.md);
 - the block fields, least recently used first out, within ``field_bytes`` for every channel
   and zoom together (strips.FieldBudget; WINDOW_BYTES a node of a window). Until 2026-12 it
-  was field_bytes a zoom: a 4 MP master served at its nine zooms peaked at 2.4 GB.
+  was field_bytes a zoom: a 4 MP master served at its nine zooms peaked at 2.4 GB. A render
+  lets go of the blocks it read whole (strips.covered_blocks: a tile on its grid above 1x);
+- the allocator's thresholds for tiles, once prepared (shared/heap.keep_freed_memory): a
+  tile's windows reuse the pages the last tile's freed, without page faults.
 Which zooms are prepared at once is the caller's choice (default 1x); the others are
 prepared by the first tile that needs them, without the planes.
 """

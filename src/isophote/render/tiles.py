@@ -14,7 +14,9 @@ their lattices. Block fields are kept within prepare.FIELD_BYTES (384 MB), every
 zoom together. After that
 a tile at or above 1x reads the segments of its own blocks and columns only: its cost is its
 windows' fields and its samples, whatever the canvas; a tile of a prepared reduction copies
-and box-filters its samples.
+and box-filters its samples. A render lets go of the fields of the blocks it read whole
+(above 1x a tile on its zoom's grid reads one block, which no other tile reads) and keeps
+those it read in part for its neighbours.
 """
 
 from __future__ import annotations
