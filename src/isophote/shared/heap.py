@@ -23,7 +23,8 @@ MMAP_THRESHOLD = 1 << 18
 # at 1x) again and again, each faulted in afresh (2.2 M page faults, 4.3 s of system time in
 # the mosaic's 15 s 1x render). Taking blocks under 8 MB from the heaps (16 MB of freed pages
 # kept) saved 7-13 % of a full render's time but raised its peak by 30-85 MB: the `high`
-# mosaic to 3840 wide 919 -> 974 MB beside the output, over issue 22's 1 GB. Not done.
+# mosaic to 3840 wide 919 -> 974 MB beside the output, over issue 22's 1 GB (two more runs
+# each: 885-925 MB against 924-967). Not done.
 # A process that serves tiles (a preparation's: render/prepare.py) allocates and frees the
 # same few megabytes of window arrays for every tile; mapped on their own, each tile paid
 # about 2,200 page faults (3-4 ms of system time on two processors, a sixth of a 2x tile's
