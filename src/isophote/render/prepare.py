@@ -78,9 +78,8 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
     from .. import threads
     from . import _plane_key, channel_state, make_plane, plane_lattice, prepared_buckets, prepared_windings, viewport
     from ..options import RenderOptions
-    from .distance import MODES
-
     from ..shared.heap import keep_freed_memory
+    from .distance import MODES
 
     prep = _PREPARED.get(vi)
     if prep is None:
