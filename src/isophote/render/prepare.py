@@ -33,8 +33,8 @@ kept with the VectorImage until it is collected) renders and tiles reuse, per ch
   and zoom together (strips.FieldBudget; WINDOW_BYTES a node of a window). Until 2026-12 it
   was field_bytes a zoom: a 4 MP master served at its nine zooms peaked at 2.4 GB. A render
   lets go of the blocks it read whole (strips.covered_blocks: a tile on its grid above 1x);
-- the allocator's thresholds for tiles, once prepared (shared/heap.keep_freed_memory): a
-  tile's windows reuse the pages the last tile's freed, without page faults.
+- none of the allocator's settings: every render of a prepared master sets the tiles' own
+  (shared/heap.keep_freed_memory), so a tile's windows reuse the pages the last one freed.
 Which zooms are prepared at once is the caller's choice (default 1x); the others are
 prepared by the first tile that needs them, without the planes.
 """
@@ -78,7 +78,6 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
     from .. import threads
     from . import _plane_key, channel_state, make_plane, plane_lattice, prepared_buckets, prepared_windings, viewport
     from ..options import RenderOptions
-    from ..shared.heap import keep_freed_memory
     from .distance import MODES
 
     prep = _PREPARED.get(vi)
@@ -100,7 +99,4 @@ def prepare(vi, zooms=(1.0,), field_bytes: int = FIELD_BYTES, planes: bool = Tru
 
             with threads.pool(threads.available(len(vi.channels))) as pool:
                 list(pool.map(plane, vi.channels))
-    # tiles to come: their windows' arrays stay in the heap from one tile to the next (set
-    # after the preparation, whose canvas-sized temporaries are mapped and given back)
-    keep_freed_memory()
     return prep

@@ -137,6 +137,18 @@ def _row_of(y, nudge_row):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _rows_crossed(ya, yb, ra, rb, row0, n_rows):
+    """(dw, i_start, i_stop): an edge's winding change (+1 going down) and the rows i with
+    lo <= i + 0.5 < hi it crosses, relative to row0 and within 0 .. n_rows (stop exclusive;
+    none where i_start >= i_stop), from its ends' rows ra = _row_of(ya), rb = _row_of(yb)."""
+    if ya < yb:
+        dw, i_start, i_stop = 1, ra - row0, rb - row0
+    else:
+        dw, i_start, i_stop = -1, rb - row0, ra - row0
+    return dw, max(i_start, 0), min(i_stop, n_rows)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _edge(acc, xa, ya, xb, yb, is_src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col):
     """One edge's crossings of the rows, into the accumulators."""
     if ya == yb:
@@ -149,17 +161,7 @@ def _edge(acc, xa, ya, xb, yb, is_src, row0, col0, n_rows, n_cols, crossings, nu
 def _edge_rows(acc, xa, ya, xb, yb, ra, rb, is_src, row0, col0, n_rows, n_cols, crossings, nudge_row, nudge_col):
     """_edge with the ends' rows ra = _row_of(ya), rb = _row_of(yb) given (ya != yb)."""
     delta, fx, fd, lx, ld, fs, ls = acc
-    if ya < yb:
-        dw = 1
-        # rows i with lo <= i + 0.5 < hi, relative to row0
-        i_start, i_stop = ra - row0, rb - row0  # (stop exclusive)
-    else:
-        dw = -1
-        i_start, i_stop = rb - row0, ra - row0
-    if i_start < 0:
-        i_start = 0
-    if i_stop > n_rows:
-        i_stop = n_rows
+    dw, i_start, i_stop = _rows_crossed(ya, yb, ra, rb, row0, n_rows)
     if i_start >= i_stop:
         return
     slope = (xb - xa) / (yb - ya)
@@ -217,13 +219,7 @@ def row_windings(points, first, border, ids, tol, kx, ox, ky, oy, row0, n_rows, 
             xb, yb = sx * kx - ox, sy * ky - oy
             rb = _row_of(yb, NUDGE_Y)
             if ra != rb:
-                # rows i with lo <= i + 0.5 < hi (raster._edge)
-                if ya < yb:
-                    dw, i_start, i_stop = 1, ra - row0, rb - row0
-                else:
-                    dw, i_start, i_stop = -1, rb - row0, ra - row0
-                i_start = max(i_start, 0)
-                i_stop = min(i_stop, n_rows)
+                dw, i_start, i_stop = _rows_crossed(ya, yb, ra, rb, row0, n_rows)
                 slope = (xb - xa) / (yb - ya)
                 for i in range(i_start, i_stop):
                     yc = i + row0 + 0.5 + NUDGE_Y
